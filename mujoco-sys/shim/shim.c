@@ -1,0 +1,87 @@
+// Error trampoline for MuJoCo 2.2: a fatal mju_error inside a guarded call long-jumps back to that call, which
+// returns 1 with MuJoCo's message, instead of MuJoCo's default handler (print, wait on stdin, exit(1)).
+//
+// The jump target and the message are thread-local, so an error on one thread never disturbs another. MuJoCo
+// calls its per-thread hook first, then the process-global mju_user_error; we install the global one once (it
+// consults our thread-local state) because the per-thread hook is a private, unversioned symbol. Only C frames
+// lie between sigsetjmp and siglongjmp: the Rust callers sit outside the guarded region.
+
+#define _POSIX_C_SOURCE 200809L
+#include <setjmp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <mujoco/mujoco.h>
+
+typedef void (*topa_log_cb)(const char*);
+
+static topa_log_cb g_warning_cb = NULL;
+static _Thread_local sigjmp_buf* tls_jump = NULL;
+static _Thread_local char tls_message[1024];
+
+static void topa_error_handler(const char* msg) {
+  snprintf(tls_message, sizeof tls_message, "%s", msg ? msg : "(no message)");
+  if (tls_jump) {
+    siglongjmp(*tls_jump, 1);
+  }
+  // MuJoCo's handlers must not return. Every entry point that can raise is guarded by the Rust layer, so reaching
+  // this is a bug in mujoco-sys; fail loudly rather than corrupt memory.
+  fprintf(stderr, "mujoco-sys: MuJoCo error outside a guarded call (bug): %s\n", tls_message);
+  abort();
+}
+
+static void topa_warning_handler(const char* msg) {
+  if (g_warning_cb) {
+    g_warning_cb(msg ? msg : "(no message)");
+  }
+}
+
+void topa_install_handlers(topa_log_cb warning_cb) {
+  g_warning_cb = warning_cb;
+  mju_user_error = topa_error_handler;
+  mju_user_warning = topa_warning_handler;
+}
+
+static void copy_error(char* err, int errlen) {
+  if (err && errlen > 0) {
+    snprintf(err, (size_t)errlen, "%s", tls_message);
+  }
+}
+
+// GUARDED(body): run body with the thread's jump target set; 0 on success, 1 (and err filled) on mju_error.
+#define GUARDED(body)                               \
+  sigjmp_buf jump;                                  \
+  sigjmp_buf* volatile previous = tls_jump;         \
+  if (sigsetjmp(jump, 0)) {                         \
+    tls_jump = previous;                            \
+    copy_error(err, errlen);                        \
+    return 1;                                       \
+  }                                                 \
+  tls_jump = &jump;                                 \
+  body;                                             \
+  tls_jump = previous;                              \
+  return 0;
+
+int topa_step(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_step(m, d)) }
+int topa_step1(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_step1(m, d)) }
+int topa_step2(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_step2(m, d)) }
+int topa_forward(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_forward(m, d)) }
+int topa_reset_data(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_resetData(m, d)) }
+int topa_reset_data_keyframe(const mjModel* m, mjData* d, int key, char* err, int errlen) {
+  GUARDED(mj_resetDataKeyframe(m, d, key))
+}
+int topa_set_const(mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_setConst(m, d)) }
+
+int topa_make_data(const mjModel* m, mjData** out, char* err, int errlen) { GUARDED(*out = mj_makeData(m)) }
+int topa_copy_data(mjData** out, const mjModel* m, const mjData* src, char* err, int errlen) {
+  GUARDED(*out = mj_copyData(NULL, m, src))
+}
+int topa_copy_model(mjModel** out, const mjModel* src, char* err, int errlen) {
+  GUARDED(*out = mj_copyModel(NULL, src))
+}
+
+// Loading reports parse/compile errors through `err` itself; the guard catches the rarer mju_error path.
+int topa_load_xml(const char* filename, const mjVFS* vfs, mjModel** out, char* err, int errlen) {
+  GUARDED(*out = mj_loadXML(filename, vfs, err, errlen))
+}

@@ -1,0 +1,299 @@
+//! `Data`: one simulation state for a model, owned by one thread at a time. Every call that can raise a MuJoCo
+//! error goes through the shim and returns `Err` instead of exiting the process.
+
+use std::sync::Arc;
+
+use crate::error::{MujocoError, Result};
+use crate::ffi::{self, mjContact, mjData};
+use crate::guard::{self, guarded};
+use crate::model_arrays::{view, view_mut};
+use crate::Model;
+
+/// MuJoCo's warning kinds (`mjtWarning`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Warning {
+    Inertia = ffi::mjWARN_INERTIA as isize,
+    ContactFull = ffi::mjWARN_CONTACTFULL as isize,
+    ConstraintFull = ffi::mjWARN_CNSTRFULL as isize,
+    VGeomFull = ffi::mjWARN_VGEOMFULL as isize,
+    BadQpos = ffi::mjWARN_BADQPOS as isize,
+    BadQvel = ffi::mjWARN_BADQVEL as isize,
+    BadQacc = ffi::mjWARN_BADQACC as isize,
+    BadCtrl = ffi::mjWARN_BADCTRL as isize,
+}
+
+impl Warning {
+    pub const ALL: [Warning; 8] = [
+        Warning::Inertia,
+        Warning::ContactFull,
+        Warning::ConstraintFull,
+        Warning::VGeomFull,
+        Warning::BadQpos,
+        Warning::BadQvel,
+        Warning::BadQacc,
+        Warning::BadCtrl,
+    ];
+}
+
+/// A simulation state. It keeps its model alive; several `Data` may share one `Arc<Model>`.
+pub struct Data {
+    ptr: std::ptr::NonNull<mjData>,
+    model: Arc<Model>,
+}
+
+// SAFETY: an mjData is owned exclusively by this value; MuJoCo keeps no thread affinity.
+unsafe impl Send for Data {}
+
+impl Drop for Data {
+    fn drop(&mut self) {
+        // SAFETY: we own the pointer.
+        unsafe { ffi::mj_deleteData(self.ptr.as_ptr()) }
+    }
+}
+
+impl Clone for Data {
+    /// A deep copy sharing the same model. Panics only if MuJoCo cannot allocate; see `try_clone`.
+    fn clone(&self) -> Self {
+        self.try_clone().expect("mj_copyData failed")
+    }
+}
+
+macro_rules! data_arrays {
+    ($($(#[$doc:meta])* $name:ident / $name_mut:ident: $ty:ty, |$m:ident| $count:expr;)*) => {
+        impl Data {
+            $(
+                $(#[$doc])*
+                pub fn $name(&self) -> &[$ty] {
+                    let $m = self.model.raw();
+                    // SAFETY: MuJoCo sizes this array by the model dimensions.
+                    unsafe { view(self.raw().$name, ($count) as usize) }
+                }
+                pub fn $name_mut(&mut self) -> &mut [$ty] {
+                    let n = { let $m = self.model.raw(); ($count) as usize };
+                    // SAFETY: `&mut self` gives exclusive access to the array.
+                    unsafe { view_mut(self.raw().$name, n) }
+                }
+            )*
+        }
+    };
+}
+
+data_arrays! {
+    qpos / qpos_mut: f64, |m| m.nq;
+    qvel / qvel_mut: f64, |m| m.nv;
+    qacc / qacc_mut: f64, |m| m.nv;
+    act / act_mut: f64, |m| m.na;
+    ctrl / ctrl_mut: f64, |m| m.nu;
+    /// Generalised forces applied by the user (nv).
+    qfrc_applied / qfrc_applied_mut: f64, |m| m.nv;
+    /// Cartesian [force(3), torque(3)] applied at each body's centre of mass, world frame.
+    xfrc_applied / xfrc_applied_mut: [f64; 6], |m| m.nbody;
+    actuator_force / actuator_force_mut: f64, |m| m.nu;
+    actuator_length / actuator_length_mut: f64, |m| m.nu;
+    actuator_velocity / actuator_velocity_mut: f64, |m| m.nu;
+    qfrc_actuator / qfrc_actuator_mut: f64, |m| m.nv;
+    qfrc_constraint / qfrc_constraint_mut: f64, |m| m.nv;
+    qfrc_bias / qfrc_bias_mut: f64, |m| m.nv;
+    sensordata / sensordata_mut: f64, |m| m.nsensordata;
+    xpos / xpos_mut: [f64; 3], |m| m.nbody;
+    xquat / xquat_mut: [f64; 4], |m| m.nbody;
+    xmat / xmat_mut: [f64; 9], |m| m.nbody;
+    xipos / xipos_mut: [f64; 3], |m| m.nbody;
+    /// Com-based spatial velocity per body: [angular(3), linear(3)].
+    cvel / cvel_mut: [f64; 6], |m| m.nbody;
+    cfrc_ext / cfrc_ext_mut: [f64; 6], |m| m.nbody;
+    subtree_com / subtree_com_mut: [f64; 3], |m| m.nbody;
+    geom_xpos / geom_xpos_mut: [f64; 3], |m| m.ngeom;
+    geom_xmat / geom_xmat_mut: [f64; 9], |m| m.ngeom;
+    site_xpos / site_xpos_mut: [f64; 3], |m| m.nsite;
+    site_xmat / site_xmat_mut: [f64; 9], |m| m.nsite;
+}
+
+impl Data {
+    /// A fresh state at the model's `qpos0`.
+    pub fn new(model: Arc<Model>) -> Result<Data> {
+        guard::init()?;
+        let mut out: *mut mjData = std::ptr::null_mut();
+        // SAFETY: valid model; the shim writes the new pointer on success.
+        guarded("mj_makeData", |e, n| unsafe { guard::topa_make_data(model.raw(), &mut out, e, n) })?;
+        let ptr = std::ptr::NonNull::new(out)
+            .ok_or_else(|| MujocoError::Fatal { call: "mj_makeData", message: "allocation failed".into() })?;
+        Ok(Data { ptr, model })
+    }
+
+    /// A deep copy sharing the same model.
+    pub fn try_clone(&self) -> Result<Data> {
+        let mut out: *mut mjData = std::ptr::null_mut();
+        // SAFETY: self was made for self.model.
+        guarded("mj_copyData", |e, n| unsafe { guard::topa_copy_data(&mut out, self.model.raw(), self.raw(), e, n) })?;
+        let ptr = std::ptr::NonNull::new(out)
+            .ok_or_else(|| MujocoError::Fatal { call: "mj_copyData", message: "allocation failed".into() })?;
+        Ok(Data { ptr, model: self.model.clone() })
+    }
+
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    pub fn model_arc(&self) -> &Arc<Model> {
+        &self.model
+    }
+
+    /// The model, mutable. If other `Data` share it, this `Data` first gets its own copy (copy-on-write), so the
+    /// change never leaks into other simulations.
+    pub fn model_mut(&mut self) -> &mut Model {
+        Arc::make_mut(&mut self.model)
+    }
+
+    /// The raw struct, for reading anything the safe layer does not wrap.
+    pub fn raw(&self) -> &mjData {
+        // SAFETY: valid for our lifetime.
+        unsafe { self.ptr.as_ref() }
+    }
+
+    /// The raw struct, mutable.
+    ///
+    /// # Safety
+    /// Do not change sizes, pointers or the stack bookkeeping.
+    pub unsafe fn raw_mut(&mut self) -> &mut mjData {
+        self.ptr.as_mut()
+    }
+
+    fn parts(&mut self) -> (*const ffi::mjModel, *mut mjData) {
+        (self.model.raw() as *const _, self.ptr.as_ptr())
+    }
+
+    /// One physics step (`mj_step`). On `Err` the state is undefined: call `reset` before using it again.
+    pub fn step(&mut self) -> Result<()> {
+        let (m, d) = self.parts();
+        // SAFETY: d was made for m.
+        guarded("mj_step", |e, n| unsafe { guard::topa_step(m, d, e, n) })
+    }
+
+    /// First half of a step (positions and velocities), so controls can depend on them.
+    pub fn step1(&mut self) -> Result<()> {
+        let (m, d) = self.parts();
+        guarded("mj_step1", |e, n| unsafe { guard::topa_step1(m, d, e, n) })
+    }
+
+    /// Second half of a step (forces, acceleration, integration).
+    pub fn step2(&mut self) -> Result<()> {
+        let (m, d) = self.parts();
+        guarded("mj_step2", |e, n| unsafe { guard::topa_step2(m, d, e, n) })
+    }
+
+    /// Computes everything derived from the state without integrating (`mj_forward`).
+    pub fn forward(&mut self) -> Result<()> {
+        let (m, d) = self.parts();
+        guarded("mj_forward", |e, n| unsafe { guard::topa_forward(m, d, e, n) })
+    }
+
+    /// Back to `qpos0`, zero velocity, zero controls, warnings cleared.
+    pub fn reset(&mut self) -> Result<()> {
+        let (m, d) = self.parts();
+        guarded("mj_resetData", |e, n| unsafe { guard::topa_reset_data(m, d, e, n) })
+    }
+
+    /// Back to keyframe `key` (its qpos, qvel, act, ctrl, time).
+    pub fn reset_keyframe(&mut self, key: usize) -> Result<()> {
+        if key >= self.model.nkey() {
+            return Err(MujocoError::Invalid(format!(
+                "keyframe {key} out of range: model '{}' has {} keyframes",
+                self.model.name(),
+                self.model.nkey()
+            )));
+        }
+        let (m, d) = self.parts();
+        guarded("mj_resetDataKeyframe", |e, n| unsafe { guard::topa_reset_data_keyframe(m, d, key as i32, e, n) })
+    }
+
+    /// Recomputes the model constants that depend on masses and inertias (`mj_setConst`), after changing them.
+    /// Uses (and leaves at `qpos0`) this `Data`.
+    pub fn set_const(&mut self) -> Result<()> {
+        let d = self.ptr.as_ptr();
+        let m = self.model_mut().as_ptr();
+        // SAFETY: d was made for m (copy-on-write keeps the sizes).
+        guarded("mj_setConst", |e, n| unsafe { guard::topa_set_const(m, d, e, n) })
+    }
+
+    /// Simulation time (s).
+    pub fn time(&self) -> f64 {
+        self.raw().time
+    }
+
+    pub fn set_time(&mut self, t: f64) {
+        // SAFETY: a state value.
+        unsafe { self.raw_mut().time = t };
+    }
+
+    /// How many times each warning fired since the last reset or `clear_warnings`.
+    pub fn warning_count(&self, w: Warning) -> i32 {
+        self.raw().warning[w as usize].number
+    }
+
+    pub fn clear_warnings(&mut self) {
+        // SAFETY: plain counters.
+        unsafe {
+            for w in self.raw_mut().warning.iter_mut() {
+                w.number = 0;
+                w.lastinfo = 0;
+            }
+        }
+    }
+
+    /// True if the simulation blew up: MuJoCo flagged a bad qpos/qvel/qacc (it then silently resets the state),
+    /// or the state holds a non-finite number.
+    pub fn is_unstable(&self) -> bool {
+        [Warning::BadQpos, Warning::BadQvel, Warning::BadQacc].iter().any(|&w| self.warning_count(w) > 0)
+            || !self.qpos().iter().chain(self.qvel()).all(|x| x.is_finite())
+    }
+
+    /// Active contacts (valid after `forward` or `step`).
+    pub fn contacts(&self) -> &[mjContact] {
+        let d = self.raw();
+        // SAFETY: `contact` holds at least ncon entries.
+        unsafe { view(d.contact, d.ncon as usize) }
+    }
+
+    /// Contact `i`'s force and torque in its contact frame (normal first), via `mj_contactForce`.
+    pub fn contact_force(&self, i: usize) -> Result<[f64; 6]> {
+        if i >= self.raw().ncon as usize {
+            return Err(MujocoError::Invalid(format!("contact {i} out of range ({} contacts)", self.raw().ncon)));
+        }
+        let mut out = [0.0; 6];
+        // SAFETY: index checked; writes 6 values.
+        unsafe { ffi::mj_contactForce(self.model.raw(), self.raw(), i as i32, out.as_mut_ptr()) };
+        Ok(out)
+    }
+
+    /// Constraint row types (`mjtConstraint`) of the current constraint set (nefc rows).
+    pub fn efc_type(&self) -> &[i32] {
+        let d = self.raw();
+        unsafe { view(d.efc_type, d.nefc as usize) }
+    }
+    /// Object id of each constraint row (equality id for equality rows).
+    pub fn efc_id(&self) -> &[i32] {
+        let d = self.raw();
+        unsafe { view(d.efc_id, d.nefc as usize) }
+    }
+    /// Constraint violation of each row.
+    pub fn efc_pos(&self) -> &[f64] {
+        let d = self.raw();
+        unsafe { view(d.efc_pos, d.nefc as usize) }
+    }
+    /// Constraint force of each row.
+    pub fn efc_force(&self) -> &[f64] {
+        let d = self.raw();
+        unsafe { view(d.efc_force, d.nefc as usize) }
+    }
+
+    /// Euclidean norm of equality constraint `eq`'s violation (metres for a connect), from the constraint rows of
+    /// the last `forward`/`step`. Zero when the constraint is inactive.
+    pub fn equality_residual(&self, eq: usize) -> f64 {
+        let rows = self.efc_type().iter().zip(self.efc_id()).zip(self.efc_pos());
+        rows.filter(|((&t, &id), _)| t == ffi::mjCNSTR_EQUALITY as i32 && id as usize == eq)
+            .map(|(_, p)| p * p)
+            .sum::<f64>()
+            .sqrt()
+    }
+}

@@ -1,0 +1,31 @@
+//! MuJoCo 2.2 for Rust: the generated FFI (`ffi`) and a safe layer (`Model`, `Data`) in which a fatal MuJoCo
+//! error becomes `Err` instead of ending the process, and warnings go to the `log` crate instead of stdout and
+//! `MUJOCO_LOG.TXT`.
+
+pub mod ffi;
+
+mod data;
+mod error;
+mod guard;
+mod model;
+mod model_arrays;
+mod names;
+
+pub use data::{Data, Warning};
+pub use error::{MujocoError, Result};
+pub use ffi::mjContact as Contact;
+pub use guard::version_string;
+pub use model::{Integrator, Model};
+pub use names::ObjType;
+
+/// MuJoCo's equality-constraint kinds, by name.
+pub fn equality_type_name(raw: i32) -> &'static str {
+    match raw as u32 {
+        ffi::mjEQ_CONNECT => "connect",
+        ffi::mjEQ_WELD => "weld",
+        ffi::mjEQ_JOINT => "joint",
+        ffi::mjEQ_TENDON => "tendon",
+        ffi::mjEQ_DISTANCE => "distance",
+        _ => "unknown",
+    }
+}

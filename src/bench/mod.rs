@@ -1,0 +1,3 @@
+//! `topa bench …`: performance measurements printed as ratios taken in one run (never timed tests).
+
+pub mod physics;

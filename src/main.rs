@@ -1,0 +1,77 @@
+//! `topa`: the TopA closed-chain biped toolkit — model info, benchmarks, training and sim2sim evaluation.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod bench;
+mod info;
+
+#[derive(Parser)]
+#[command(
+    name = "topa",
+    version,
+    about = "TopA closed-chain biped: MuJoCo 2.2 simulation, PPO training, sim2sim evaluation"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Summarise an MJCF model: sizes, equality constraints, joints, actuators, mass, timestep.
+    Info {
+        /// The MJCF file.
+        model: PathBuf,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Performance benchmarks (ratios measured in one run).
+    #[command(subcommand)]
+    Bench(BenchCmd),
+}
+
+#[derive(Subcommand)]
+enum BenchCmd {
+    /// mj_step/s of our safe loop vs mujoco-testspeed, and a Data batch on 2 threads vs 1.
+    Physics {
+        /// The MJCF file (e.g. /usr/share/mujoco/model/humanoid/humanoid.xml).
+        model: PathBuf,
+        /// Steps per timed run.
+        #[arg(long, default_value_t = 20000)]
+        steps: usize,
+        /// Timed rounds per side (the best is kept).
+        #[arg(long, default_value_t = 3)]
+        rounds: usize,
+        /// Number of Data in the threaded batch.
+        #[arg(long, default_value_t = 8)]
+        batch: usize,
+        /// Skip the mujoco-testspeed comparison.
+        #[arg(long)]
+        no_testspeed: bool,
+    },
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Cmd::Info { model, json } => info::run(&model, json),
+        Cmd::Bench(BenchCmd::Physics { model, steps, rounds, batch, no_testspeed }) => {
+            bench::physics::run(&model, steps, rounds, batch, !no_testspeed)
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // One line: the error and its causes.
+            eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            ExitCode::FAILURE
+        }
+    }
+}
