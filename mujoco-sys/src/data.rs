@@ -82,6 +82,8 @@ data_arrays! {
     qpos / qpos_mut: f64, |m| m.nq;
     qvel / qvel_mut: f64, |m| m.nv;
     qacc / qacc_mut: f64, |m| m.nv;
+    /// The solver's warm start; part of the state needed to continue a simulation bit for bit.
+    qacc_warmstart / qacc_warmstart_mut: f64, |m| m.nv;
     act / act_mut: f64, |m| m.na;
     ctrl / ctrl_mut: f64, |m| m.nu;
     /// Generalised forces applied by the user (nv).
@@ -264,6 +266,25 @@ impl Data {
         // SAFETY: index checked; writes 6 values.
         unsafe { ffi::mj_contactForce(self.model.raw(), self.raw(), i as i32, out.as_mut_ptr()) };
         Ok(out)
+    }
+
+    /// 6-D velocity [angular(3), linear(3)] of a body's frame origin (`mj_objectVelocity`), in world
+    /// orientation, or in the body's own frame if `local`. Valid after `forward`/`step`.
+    pub fn body_velocity(&self, body: usize, local: bool) -> [f64; 6] {
+        assert!(body < self.model.nbody(), "body {body} out of range");
+        let mut out = [0.0; 6];
+        // SAFETY: index checked; writes 6 values.
+        unsafe {
+            ffi::mj_objectVelocity(
+                self.model.raw(),
+                self.raw(),
+                ffi::mjOBJ_BODY as i32,
+                body as i32,
+                out.as_mut_ptr(),
+                local as i32,
+            )
+        };
+        out
     }
 
     /// Constraint row types (`mjtConstraint`) of the current constraint set (nefc rows).

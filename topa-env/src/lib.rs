@@ -1,1 +1,25 @@
+//! The TopA robot spec, the paper's training environment, and a rayon-batched VecEnv on mujoco-sys.
 
+pub mod assets;
+pub mod config;
+pub mod env;
+pub mod error;
+pub mod indices;
+pub mod perturb;
+pub mod rewards;
+pub mod robot;
+pub mod state;
+pub mod symmetry;
+pub mod task;
+pub mod tasks;
+pub mod vec_env;
+
+pub use config::EnvConfig;
+pub use env::TopaEnv;
+pub use error::{EnvError, Result};
+pub use indices::RobotIndices;
+pub use perturb::Perturbation;
+pub use robot::ModelKind;
+pub use symmetry::{SignedPermutation, Symmetry};
+pub use task::{StepOutcome, Task};
+pub use vec_env::{BatchEnv, EnvSnapshot, EpisodeStats, VecEnv};

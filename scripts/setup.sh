@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Installs what a fresh Debian bookworm machine lacks for TopA: MuJoCo 2.2.2 (libmujoco-dev) and its samples
+# (mujoco-testspeed, used by `topa bench physics`) and protoc. Sourced by run.sh and test.sh; safe to run again.
+set -euo pipefail
+
+need_pkgs=()
+[ -e /usr/include/mujoco/mujoco.h ] && ldconfig -p 2>/dev/null | grep -q 'libmujoco.so.2.2' || need_pkgs+=(libmujoco-dev)
+command -v mujoco-testspeed >/dev/null 2>&1 || need_pkgs+=(libmujoco-samples)
+# protoc: the TensorBoard event writer (crate tboard) compiles its protobuf schema at build time.
+command -v protoc >/dev/null 2>&1 || need_pkgs+=(protobuf-compiler)
+if [ ${#need_pkgs[@]} -gt 0 ]; then
+  echo "setup: installing ${need_pkgs[*]} (apt-get)" >&2
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need_pkgs[@]}" >/dev/null
+fi
+if ! command -v cargo >/dev/null 2>&1; then
+  echo "setup: cargo not found: install the Rust toolchain (https://rustup.rs), then run this again" >&2
+  exit 1
+fi

@@ -1,0 +1,257 @@
+//! The TopA training environment and the batched VecEnv: observation layout, symmetry, determinism,
+//! randomisation, pushes, divergence handling, and the tiny cart-pole task.
+
+use std::sync::Arc;
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use topa_env::env::{OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_Q};
+use topa_env::symmetry::{self, mirror_mj_state};
+use topa_env::tasks::{cartpole, CartPole};
+use topa_env::{assets, BatchEnv, EnvConfig, ModelKind, Task, TopaEnv, VecEnv};
+
+/// Training config without randomness in the dynamics or the observation.
+fn quiet(kind: ModelKind) -> EnvConfig {
+    let mut c = EnvConfig { model: kind, ..EnvConfig::default() };
+    c.noise.enabled = false;
+    c.domain_rand.enabled = false;
+    c.push.enabled = false;
+    c
+}
+
+fn env(cfg: EnvConfig, seed: u64) -> TopaEnv {
+    TopaEnv::new(assets::load_model(cfg.model).unwrap(), Arc::new(cfg), seed, 0).unwrap()
+}
+
+#[test]
+fn observation_layout_at_the_stand_pose() {
+    for kind in [ModelKind::Closed, ModelKind::Open] {
+        let mut e = env(quiet(kind), 1);
+        let mut obs = vec![f32::NAN; OBS_DIM];
+        e.reset(&mut obs).unwrap();
+        assert_eq!(e.obs_dim(), 42);
+        assert_eq!(e.action_dim(), 10);
+        // Upright: gravity reads (0, 0, −1) in the robot frame.
+        assert!(obs[OBS_GRAVITY].abs() < 1e-6 && obs[OBS_GRAVITY + 1].abs() < 1e-6, "{:?}", &obs[6..9]);
+        assert!((obs[OBS_GRAVITY + 2] + 1.0).abs() < 1e-6);
+        // Motor positions are offsets from the nominal pose: zero in the stand keyframe.
+        assert!(obs[OBS_Q..OBS_Q + 10].iter().all(|q| q.abs() < 1e-6), "{:?}", &obs[OBS_Q..OBS_Q + 10]);
+        assert!(obs[OBS_LAST_ACTION..OBS_LAST_ACTION + 10].iter().all(|&a| a == 0.0));
+        let c = e.command();
+        assert_eq!(&obs[OBS_COMMAND..], &[c[0] as f32, c[1] as f32, c[2] as f32]);
+        // The action just applied is the next observation's "previous action".
+        let a: Vec<f32> = (0..10).map(|i| 0.01 * i as f32).collect();
+        e.step(&a, &mut obs);
+        assert_eq!(&obs[OBS_LAST_ACTION..OBS_LAST_ACTION + 10], &a[..]);
+    }
+}
+
+#[test]
+fn standing_still_earns_the_tracking_and_posture_terms() {
+    let mut cfg = quiet(ModelKind::Closed);
+    cfg.rewards.scale_by_dt = false;
+    let mut e = env(cfg.clone(), 2);
+    let mut obs = vec![0.0; OBS_DIM];
+    e.reset(&mut obs).unwrap();
+    e.set_command_override(Some([0.0; 3]));
+    let zero = [0.0f32; 10];
+    for _ in 0..50 {
+        let out = e.step(&zero, &mut obs);
+        assert!(!out.done);
+    }
+    let names = e.term_names();
+    let t = e.terms();
+    let term = |n: &str| t[names.iter().position(|x| *x == n).unwrap()];
+    // Holding still on command zero: each tracking kernel ≈ exp(0) = 1, times its weight.
+    assert!((term("lin_vel_xy_tracking") - 3.0).abs() < 0.05, "{}", term("lin_vel_xy_tracking"));
+    assert!((term("ang_vel_z_tracking") - 1.5).abs() < 0.02);
+    assert!(term("orientation") > 0.95 && term("hip_roll_deviation") > 0.49 && term("hip_yaw_deviation") > 0.49);
+    assert_eq!(term("action_rate"), 0.0);
+    assert_eq!(term("joint_position_limits"), 0.0);
+    assert_eq!(term("feet_air_time"), 0.0, "no touchdown while standing");
+}
+
+/// Mirrors the whole simulation state of `src` into `dst` (same model).
+fn mirror_into(src: &TopaEnv, dst: &mut TopaEnv, obs: &mut [f32]) {
+    let m = src.data().model();
+    let (p, v) = mirror_mj_state(m, src.data().qpos(), src.data().qvel()).unwrap();
+    dst.data_mut().qpos_mut().copy_from_slice(&p);
+    dst.data_mut().qvel_mut().copy_from_slice(&v);
+    dst.refresh(obs).unwrap();
+}
+
+#[test]
+fn closed_model_dynamics_are_mirror_equivariant() {
+    let sym = symmetry::topa();
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let mut a = env(quiet(ModelKind::Closed), 3);
+    let mut b = env(quiet(ModelKind::Closed), 4);
+    let (mut oa, mut ob) = (vec![0.0; OBS_DIM], vec![0.0; OBS_DIM]);
+    a.reset(&mut oa).unwrap();
+    b.reset(&mut ob).unwrap();
+    let cmd = [0.3, 0.2, 0.5];
+    a.set_command_override(Some(cmd));
+    b.set_command_override(Some([cmd[0], -cmd[1], -cmd[2]]));
+    // Drive A into an asymmetric, physically consistent state.
+    for _ in 0..10 {
+        let act: Vec<f32> = (0..10).map(|_| rng.random_range(-0.5..0.5)).collect();
+        a.step(&act, &mut oa);
+    }
+    let mut worst: f32 = 0.0;
+    for _ in 0..5 {
+        mirror_into(&a, &mut b, &mut ob);
+        let act: Vec<f32> = (0..10).map(|_| rng.random_range(-0.5..0.5)).collect();
+        let mut act_m = vec![0.0; 10];
+        sym.act.apply(&act, &mut act_m);
+        // Same previous action on both sides of the mirror.
+        a.step(&act, &mut oa);
+        b.step(&act_m, &mut ob);
+        let mut expect = vec![0.0; OBS_DIM];
+        sym.obs.apply(&oa, &mut expect);
+        for i in 0..OBS_DIM {
+            worst = worst.max((expect[i] - ob[i]).abs());
+        }
+    }
+    eprintln!("equivariance: max |S_o(o') − o'(S state, S_a a)| = {worst:.2e}");
+    assert!(worst < 1e-3, "mirrored dynamics differ by {worst}: a sign in S_o/S_a or the model is wrong");
+}
+
+fn rollout(threads: usize, seed: u64, steps: usize) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+    let cfg = EnvConfig::default();
+    let mut v = assets::topa_batch(&cfg, 6, seed, threads).unwrap();
+    v.reset().unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(99);
+    let (mut obs, mut rew, mut done) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..steps {
+        let act: Vec<f32> = (0..6 * 10).map(|_| rng.random_range(-1.0..1.0)).collect();
+        v.step(&act).unwrap();
+        obs.extend_from_slice(v.obs());
+        rew.extend_from_slice(v.rewards());
+        done.extend_from_slice(v.dones());
+    }
+    (obs, rew, done)
+}
+
+#[test]
+fn a_seed_fixes_the_rollout_whatever_the_thread_count() {
+    let one = rollout(1, 5, 60);
+    let two = rollout(2, 5, 60);
+    assert!(one == two, "1 and 2 threads must give identical rollouts");
+    let other = rollout(2, 6, 60);
+    assert!(one.0 != other.0, "different seeds must differ");
+}
+
+#[test]
+fn domain_randomisation_stays_within_its_ranges() {
+    let mut cfg = EnvConfig::default();
+    cfg.domain_rand.mass_scale = [0.9, 1.1];
+    cfg.domain_rand.friction_scale = [0.75, 1.25];
+    let model = assets::load_model(ModelKind::Closed).unwrap();
+    let nominal_mass = model.body_mass().to_vec();
+    let nominal_friction: Vec<f64> = model.geom_friction().iter().map(|f| f[0]).collect();
+    let mut e = TopaEnv::new(model, Arc::new(cfg), 11, 0).unwrap();
+    let mut obs = vec![0.0; OBS_DIM];
+    let (mut lo, mut hi) = (f64::MAX, f64::MIN);
+    for _ in 0..20 {
+        e.reset(&mut obs).unwrap();
+        let m = e.data().model();
+        for (b, (&x, &n)) in m.body_mass().iter().zip(&nominal_mass).enumerate().skip(1) {
+            let s = x / n;
+            assert!((0.9 - 1e-12..=1.1 + 1e-12).contains(&s), "body {b} mass scale {s}");
+            lo = lo.min(s);
+            hi = hi.max(s);
+        }
+        let floor = e.indices().floor_geom;
+        let fs = m.geom_friction()[floor][0] / nominal_friction[floor];
+        assert!((0.75 - 1e-12..=1.25 + 1e-12).contains(&fs), "friction scale {fs}");
+        let foot = e.indices().foot_geoms[0];
+        assert!((m.geom_friction()[foot][0] / nominal_friction[foot] - fs).abs() < 1e-12, "soles scale like the floor");
+        assert!((m.total_mass() - m.body_subtreemass()[0]).abs() < 1e-9, "mj_setConst ran after the change");
+    }
+    assert!(lo < 0.92 && hi > 1.08, "the whole range is used: [{lo}, {hi}]");
+}
+
+#[test]
+fn pushes_kick_the_base_by_the_configured_speed() {
+    let mut pushed = quiet(ModelKind::Closed);
+    pushed.push = topa_env::config::PushConfig { enabled: true, velocity: [1.0, 1.0], interval_s: 0.02 };
+    let mut a = env(pushed, 21);
+    let mut b = env(quiet(ModelKind::Closed), 21);
+    let (mut oa, mut ob) = (vec![0.0; OBS_DIM], vec![0.0; OBS_DIM]);
+    a.reset(&mut oa).unwrap();
+    b.reset(&mut ob).unwrap();
+    let zero = [0.0f32; 10];
+    a.step(&zero, &mut oa);
+    b.step(&zero, &mut ob);
+    let dof = a.indices().base_dof;
+    let (va, vb) = (a.data().qvel(), b.data().qvel());
+    let kick = (va[dof] - vb[dof]).hypot(va[dof + 1] - vb[dof + 1]);
+    assert!((kick - 1.0).abs() < 1e-9, "push of {kick} m/s, configured 1.0");
+    assert_eq!(va[dof + 2], vb[dof + 2], "pushes are horizontal");
+}
+
+#[test]
+fn a_diverging_env_is_reset_and_counted_without_disturbing_the_batch() {
+    let cfg = quiet(ModelKind::Closed);
+    let run = |sabotage: bool| {
+        let mut v = assets::topa_batch(&cfg, 4, 3, 2).unwrap();
+        v.reset().unwrap();
+        if sabotage {
+            // An absurd force on env 2's feet: the simulation blows up within a step.
+            let mut p = vec![0.0f32; 4 * 12];
+            p[2 * 12 + 8] = 1e30;
+            v.set_perturbations(&p).unwrap();
+        }
+        let act = vec![0.1f32; 40];
+        for _ in 0..3 {
+            v.step(&act).unwrap();
+        }
+        (v.obs().to_vec(), v.take_episode_stats())
+    };
+    let (clean, _) = run(false);
+    let (dirty, stats) = run(true);
+    assert!(stats.diverged >= 1, "the blow-up must be counted: {stats:?}");
+    assert!(dirty.iter().all(|x| x.is_finite()), "the reset env observes finite values");
+    for env_i in [0, 1, 3] {
+        assert_eq!(&clean[env_i * 42..(env_i + 1) * 42], &dirty[env_i * 42..(env_i + 1) * 42], "env {env_i}");
+    }
+}
+
+#[test]
+fn cartpole_random_policy_falls_quickly() {
+    let model = cartpole::model().unwrap();
+    let tasks = (0..16).map(|i| CartPole::new(model.clone(), 1, i, 200).unwrap()).collect();
+    let mut v = BatchEnv::new(tasks, 1).unwrap();
+    v.reset().unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    for _ in 0..400 {
+        let act: Vec<f32> = (0..16).map(|_| rng.random_range(-1.0..1.0)).collect();
+        v.step(&act).unwrap();
+    }
+    let s = v.take_episode_stats();
+    assert!(s.episodes > 50, "{s:?}");
+    assert!(s.mean_length < 60.0, "a random policy should not balance: {s:?}");
+    assert_eq!(s.time_out_share, 0.0);
+}
+
+#[test]
+fn snapshot_restore_continues_bit_for_bit() {
+    let cfg = EnvConfig::default();
+    let mut a = assets::topa_batch(&cfg, 3, 8, 1).unwrap();
+    a.reset().unwrap();
+    let act = |k: usize| -> Vec<f32> { (0..30).map(|i| ((i * 7 + k * 13) % 11) as f32 / 11.0 - 0.5).collect() };
+    for k in 0..20 {
+        a.step(&act(k)).unwrap();
+    }
+    let snap = a.save_state();
+    let mut b = assets::topa_batch(&cfg, 3, 12345, 2).unwrap();
+    b.reset().unwrap();
+    b.load_state(&snap).unwrap();
+    assert_eq!(a.obs(), b.obs());
+    for k in 20..60 {
+        a.step(&act(k)).unwrap();
+        b.step(&act(k)).unwrap();
+        assert_eq!(a.obs(), b.obs(), "step {k}");
+        assert_eq!(a.rewards(), b.rewards());
+    }
+}

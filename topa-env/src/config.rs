@@ -1,0 +1,301 @@
+//! Environment configuration. Defaults are the paper's tables (rewards, domain randomisation) plus the settings
+//! the paper leaves open (σ's, command ranges, termination), each chosen and explained here. Read from TOML with
+//! unknown keys rejected.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{EnvError, Result};
+use crate::robot::ModelKind;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EnvConfig {
+    /// Closed chain (the paper's C) or serial approximation (O).
+    pub model: ModelKind,
+    /// Physics timestep, s (paper: policy 50 Hz; 0.005 × 4 = 20 ms).
+    pub timestep: f64,
+    /// Physics steps per policy step.
+    pub decimation: usize,
+    /// Episode length before a time-out, s.
+    pub episode_length_s: f64,
+    /// Motor target = nominal + action_scale · action (rad per unit action).
+    pub action_scale: f64,
+    /// Actions are clipped to ±action_clip before scaling (the decay loss keeps them far smaller).
+    pub action_clip: f64,
+    pub commands: CommandConfig,
+    pub rewards: RewardConfig,
+    pub noise: ObsNoiseConfig,
+    pub domain_rand: DomainRandConfig,
+    pub push: PushConfig,
+    pub termination: TerminationConfig,
+}
+
+impl Default for EnvConfig {
+    fn default() -> Self {
+        EnvConfig {
+            model: ModelKind::Closed,
+            timestep: 0.005,
+            decimation: 4,
+            episode_length_s: 20.0,
+            action_scale: 0.25,
+            action_clip: 10.0,
+            commands: CommandConfig::default(),
+            rewards: RewardConfig::default(),
+            noise: ObsNoiseConfig::default(),
+            domain_rand: DomainRandConfig::default(),
+            push: PushConfig::default(),
+            termination: TerminationConfig::default(),
+        }
+    }
+}
+
+/// Velocity commands (v_x, v_y, w_z) in the robot frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CommandConfig {
+    /// Ranges cover the paper's evaluation commands (0.5, −0.35, ±0.5 m/s, ±1 rad/s) with a margin.
+    pub lin_vel_x: [f64; 2],
+    pub lin_vel_y: [f64; 2],
+    pub ang_vel_z: [f64; 2],
+    /// A new command every this many seconds within an episode.
+    pub resample_s: f64,
+    /// Share of commands that are "stand still" (all zero).
+    pub standing_share: f64,
+    /// Linear commands below this norm are zeroed (a tiny command is indistinguishable from standing).
+    pub min_lin_norm: f64,
+}
+
+impl Default for CommandConfig {
+    fn default() -> Self {
+        CommandConfig {
+            lin_vel_x: [-0.5, 0.7],
+            lin_vel_y: [-0.6, 0.6],
+            ang_vel_z: [-1.2, 1.2],
+            resample_s: 5.0,
+            standing_share: 0.1,
+            min_lin_norm: 0.05,
+        }
+    }
+}
+
+/// The 14 reward terms of the paper (Table "Rewards"): weights exactly as published, σ's ours.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RewardConfig {
+    pub lin_vel_xy_tracking: f64,
+    pub ang_vel_z_tracking: f64,
+    pub lin_vel_z: f64,
+    pub ang_vel_xy: f64,
+    pub orientation: f64,
+    pub body_height: f64,
+    pub action_rate: f64,
+    pub hip_roll_deviation: f64,
+    pub hip_yaw_deviation: f64,
+    pub ankle_pitch_deviation: f64,
+    pub joint_position_limits: f64,
+    pub motor_torque_limits: f64,
+    pub feet_slip: f64,
+    pub feet_air_time: f64,
+    /// σ_v of the linear tracking kernel, (m/s)².
+    pub sigma_v: f64,
+    /// σ_ω of the yaw-rate tracking kernel, (rad/s)².
+    pub sigma_w: f64,
+    /// σ_g of the orientation kernel on ‖g_xy‖².
+    pub sigma_g: f64,
+    /// σ_h of the body-height kernel, m².
+    pub sigma_h: f64,
+    /// σ's of the joint-deviation kernels (deviation from the nominal pose, both legs' squares summed), rad².
+    pub sigma_roll: f64,
+    pub sigma_yaw: f64,
+    pub sigma_pitch: f64,
+    /// Torso height target h_target, m (the stand keyframe's pelvis height).
+    pub base_height_target: f64,
+    /// Air time the feet-air-time term is centred on, s (paper: 0.5).
+    pub air_time_target: f64,
+    /// Joint limits for the penalty are this fraction of the range, centred (soft limits).
+    pub soft_joint_limit: f64,
+    /// Torque limits for the penalty are this fraction of each motor's peak torque.
+    pub soft_torque_limit: f64,
+    /// Multiply each step's reward by the policy period (rewards per second, as legged_gym/rsl_rl do).
+    pub scale_by_dt: bool,
+}
+
+impl Default for RewardConfig {
+    fn default() -> Self {
+        RewardConfig {
+            lin_vel_xy_tracking: 3.0,
+            ang_vel_z_tracking: 1.5,
+            lin_vel_z: -1.0,
+            ang_vel_xy: -0.5,
+            orientation: 1.0,
+            body_height: 1.0,
+            action_rate: -2.0,
+            hip_roll_deviation: 0.5,
+            hip_yaw_deviation: 0.5,
+            ankle_pitch_deviation: 0.5,
+            joint_position_limits: -5.0,
+            motor_torque_limits: -1e-3,
+            feet_slip: -1.0,
+            feet_air_time: 0.5,
+            sigma_v: 0.25,
+            sigma_w: 0.25,
+            sigma_g: 0.05,
+            sigma_h: 0.002,
+            sigma_roll: 0.05,
+            sigma_yaw: 0.05,
+            sigma_pitch: 0.1,
+            base_height_target: 0.5607,
+            air_time_target: 0.5,
+            soft_joint_limit: 0.95,
+            soft_torque_limit: 0.8,
+            scale_by_dt: true,
+        }
+    }
+}
+
+/// Observation noise, uniform in ±value and added (paper, Table "Domain randomization").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ObsNoiseConfig {
+    pub enabled: bool,
+    pub lin_vel: f64,
+    pub ang_vel: f64,
+    pub motor_pos: f64,
+    pub motor_vel: f64,
+    /// Not in the paper's table (0 = off).
+    pub gravity: f64,
+}
+
+impl Default for ObsNoiseConfig {
+    fn default() -> Self {
+        ObsNoiseConfig { enabled: true, lin_vel: 0.1, ang_vel: 0.2, motor_pos: 0.01, motor_vel: 1.5, gravity: 0.0 }
+    }
+}
+
+/// Per-episode randomisation of the env's own model copy (paper: "scale" operator).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DomainRandConfig {
+    pub enabled: bool,
+    /// Ground (and sole) friction scale.
+    pub friction_scale: [f64; 2],
+    /// Scale of every link's mass (inertia scaled alike, so density stays uniform).
+    pub mass_scale: [f64; 2],
+}
+
+impl Default for DomainRandConfig {
+    fn default() -> Self {
+        DomainRandConfig { enabled: true, friction_scale: [0.75, 1.25], mass_scale: [0.9, 1.1] }
+    }
+}
+
+/// Random pushes: the base's horizontal velocity gets a kick of random direction and magnitude.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PushConfig {
+    pub enabled: bool,
+    /// Kick magnitude range, m/s (paper: [0, 2.5], "add").
+    pub velocity: [f64; 2],
+    /// Time between kicks, s.
+    pub interval_s: f64,
+}
+
+impl Default for PushConfig {
+    fn default() -> Self {
+        PushConfig { enabled: true, velocity: [0.0, 2.5], interval_s: 8.0 }
+    }
+}
+
+/// When an episode ends in a fall.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TerminationConfig {
+    /// Torso origin below this height, m.
+    pub min_base_height: f64,
+    /// Roll or pitch beyond this, rad.
+    pub max_tilt: f64,
+    /// Any robot body other than the feet touching the floor.
+    pub body_contact: bool,
+}
+
+impl Default for TerminationConfig {
+    fn default() -> Self {
+        TerminationConfig { min_base_height: 0.3, max_tilt: 1.0, body_contact: true }
+    }
+}
+
+fn check_range(name: &str, r: [f64; 2]) -> Result<()> {
+    if !(r[0].is_finite() && r[1].is_finite() && r[0] <= r[1]) {
+        return Err(EnvError::Config(format!("{name} must be [low, high] with low ≤ high, got {r:?}")));
+    }
+    Ok(())
+}
+
+fn check_positive(name: &str, v: f64) -> Result<()> {
+    if !(v.is_finite() && v > 0.0) {
+        return Err(EnvError::Config(format!("{name} must be positive, got {v}")));
+    }
+    Ok(())
+}
+
+impl EnvConfig {
+    /// Rejects values the env cannot run with, naming the key.
+    pub fn validate(&self) -> Result<()> {
+        check_positive("timestep", self.timestep)?;
+        if self.decimation == 0 {
+            return Err(EnvError::Config("decimation must be at least 1".into()));
+        }
+        check_positive("episode_length_s", self.episode_length_s)?;
+        check_positive("action_scale", self.action_scale)?;
+        check_positive("action_clip", self.action_clip)?;
+        check_range("commands.lin_vel_x", self.commands.lin_vel_x)?;
+        check_range("commands.lin_vel_y", self.commands.lin_vel_y)?;
+        check_range("commands.ang_vel_z", self.commands.ang_vel_z)?;
+        check_positive("commands.resample_s", self.commands.resample_s)?;
+        if !(0.0..=1.0).contains(&self.commands.standing_share) {
+            return Err(EnvError::Config("commands.standing_share must be in [0, 1]".into()));
+        }
+        let r = &self.rewards;
+        for (name, v) in [
+            ("rewards.sigma_v", r.sigma_v),
+            ("rewards.sigma_w", r.sigma_w),
+            ("rewards.sigma_g", r.sigma_g),
+            ("rewards.sigma_h", r.sigma_h),
+            ("rewards.sigma_roll", r.sigma_roll),
+            ("rewards.sigma_yaw", r.sigma_yaw),
+            ("rewards.sigma_pitch", r.sigma_pitch),
+            ("rewards.soft_joint_limit", r.soft_joint_limit),
+            ("rewards.soft_torque_limit", r.soft_torque_limit),
+        ] {
+            check_positive(name, v)?;
+        }
+        check_range("domain_rand.friction_scale", self.domain_rand.friction_scale)?;
+        check_range("domain_rand.mass_scale", self.domain_rand.mass_scale)?;
+        if self.domain_rand.mass_scale[0] <= 0.0 || self.domain_rand.friction_scale[0] <= 0.0 {
+            return Err(EnvError::Config("domain_rand scales must be positive".into()));
+        }
+        check_range("push.velocity", self.push.velocity)?;
+        check_positive("push.interval_s", self.push.interval_s)?;
+        check_positive("termination.max_tilt", self.termination.max_tilt)?;
+        Ok(())
+    }
+
+    /// The policy period, s.
+    pub fn policy_dt(&self) -> f64 {
+        self.timestep * self.decimation as f64
+    }
+
+    /// Episode length in policy steps.
+    pub fn max_episode_steps(&self) -> usize {
+        (self.episode_length_s / self.policy_dt()).round() as usize
+    }
+
+    /// Settings for sim2sim evaluation: the same env without randomisation, noise or pushes.
+    pub fn for_evaluation(&self) -> EnvConfig {
+        let mut c = self.clone();
+        c.noise.enabled = false;
+        c.domain_rand.enabled = false;
+        c.push.enabled = false;
+        c
+    }
+}

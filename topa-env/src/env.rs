@@ -1,0 +1,513 @@
+//! One TopA environment: its own `Data` (and, with domain randomisation, its own `Model` copy), the paper's
+//! observation, action, rewards, commands, pushes, randomisation and terminations.
+
+use std::sync::Arc;
+
+use mujoco_sys::{Data, Model};
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use crate::config::EnvConfig;
+use crate::error::{EnvError, Result};
+use crate::indices::RobotIndices;
+use crate::perturb::Perturbation;
+use crate::rewards::{self, RewardInputs, N_TERMS, TERM_NAMES};
+use crate::robot::{self, N_MOTORS};
+use crate::state::{self, quat_of, RobotState};
+use crate::symmetry::{self, Symmetry};
+use crate::task::{self, StepOutcome, Task};
+
+/// `[v(3), ω(3), g(3), q(10), q̇(10), a_prev(10), c(3)]`.
+pub const OBS_DIM: usize = 42;
+pub const ACT_DIM: usize = N_MOTORS;
+/// Offsets of the observation blocks.
+pub const OBS_LIN_VEL: usize = 0;
+pub const OBS_ANG_VEL: usize = 3;
+pub const OBS_GRAVITY: usize = 6;
+pub const OBS_Q: usize = 9;
+pub const OBS_QD: usize = 19;
+pub const OBS_LAST_ACTION: usize = 29;
+pub const OBS_COMMAND: usize = 39;
+
+/// Model parameters before randomisation, restored at every reset.
+#[derive(Debug)]
+struct Nominal {
+    body_mass: Vec<f64>,
+    body_inertia: Vec<[f64; 3]>,
+    geom_friction: Vec<[f64; 3]>,
+}
+
+pub struct TopaEnv {
+    cfg: Arc<EnvConfig>,
+    idx: Arc<RobotIndices>,
+    nominal: Arc<Nominal>,
+    data: Data,
+    rng: ChaCha8Rng,
+    nominal_actuated: [f64; N_MOTORS],
+    nominal_joints: [f64; N_MOTORS],
+    ctrl_range: [[f64; 2]; N_MOTORS],
+    joint_soft_limits: [[f64; 2]; N_MOTORS],
+    torque_soft_limit: [f64; N_MOTORS],
+    // Episode state.
+    step_count: usize,
+    command: [f64; 3],
+    command_override: Option<[f64; 3]>,
+    perturbation: Perturbation,
+    last_action: [f64; N_MOTORS],
+    air_time: [f64; 2],
+    last_contact: [bool; 2],
+    next_resample: usize,
+    next_push: usize,
+    terms: [f64; N_TERMS],
+    robot_state: RobotState,
+}
+
+impl TopaEnv {
+    /// A new env on `model` (shared until domain randomisation gives this env its own copy). `seed` and `index`
+    /// pick the env's own random stream, so a batch is deterministic whatever the thread count.
+    pub fn new(model: Arc<Model>, cfg: Arc<EnvConfig>, seed: u64, index: u64) -> Result<Self> {
+        cfg.validate()?;
+        let idx = Arc::new(RobotIndices::resolve(&model, cfg.model)?);
+        Self::with_indices(model, cfg, idx, seed, index)
+    }
+
+    /// As `new`, reusing indices already resolved for this model (a batch resolves once).
+    pub fn with_indices(
+        mut model: Arc<Model>,
+        cfg: Arc<EnvConfig>,
+        idx: Arc<RobotIndices>,
+        seed: u64,
+        index: u64,
+    ) -> Result<Self> {
+        if (model.timestep() - cfg.timestep).abs() > 0.0 {
+            Arc::make_mut(&mut model).set_timestep(cfg.timestep)?;
+        }
+        let nominal = Arc::new(Nominal {
+            body_mass: model.body_mass().to_vec(),
+            body_inertia: model.body_inertia().to_vec(),
+            geom_friction: model.geom_friction().to_vec(),
+        });
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(index);
+        let kind = cfg.model;
+        let joint_ranges = robot::per_motor(|m| m.joint_range);
+        let soft = cfg.rewards.soft_joint_limit;
+        let joint_soft_limits = joint_ranges.map(|[lo, hi]| {
+            let (mid, half) = ((lo + hi) / 2.0, (hi - lo) / 2.0 * soft);
+            [mid - half, mid + half]
+        });
+        let torque_soft_limit = idx.torque_limit.map(|t| t * cfg.rewards.soft_torque_limit);
+        Ok(TopaEnv {
+            data: Data::new(model)?,
+            nominal_actuated: robot::nominal_actuated(kind),
+            nominal_joints: robot::nominal_joints(),
+            ctrl_range: robot::actuated_range(kind),
+            joint_soft_limits,
+            torque_soft_limit,
+            cfg,
+            idx,
+            nominal,
+            rng,
+            step_count: 0,
+            command: [0.0; 3],
+            command_override: None,
+            perturbation: Perturbation::default(),
+            last_action: [0.0; N_MOTORS],
+            air_time: [0.0; 2],
+            last_contact: [true; 2],
+            next_resample: 0,
+            next_push: 0,
+            terms: [0.0; N_TERMS],
+            robot_state: RobotState::default(),
+        })
+    }
+
+    pub fn config(&self) -> &EnvConfig {
+        &self.cfg
+    }
+    pub fn indices(&self) -> &RobotIndices {
+        &self.idx
+    }
+    pub fn data(&self) -> &Data {
+        &self.data
+    }
+    /// Mutable access for experiments that edit the state directly (e.g. tests, scripted pushes).
+    pub fn data_mut(&mut self) -> &mut Data {
+        &mut self.data
+    }
+    /// The robot's state as of the last reset or step.
+    pub fn robot_state(&self) -> &RobotState {
+        &self.robot_state
+    }
+    /// The command the policy sees (own command, or override, plus the perturbation offset).
+    pub fn command(&self) -> [f64; 3] {
+        let base = self.command_override.unwrap_or(self.command);
+        std::array::from_fn(|i| base[i] + self.perturbation.command_offset[i])
+    }
+    /// Fixes the command (evaluation); `None` returns to random commands.
+    pub fn set_command_override(&mut self, c: Option<[f64; 3]>) {
+        self.command_override = c;
+    }
+    pub fn perturbation(&self) -> &Perturbation {
+        &self.perturbation
+    }
+    pub fn set_perturbation_struct(&mut self, p: Perturbation) {
+        self.perturbation = p;
+    }
+    pub fn episode_steps(&self) -> usize {
+        self.step_count
+    }
+
+    /// After editing the state through `data_mut`: recompute derived quantities and the observation.
+    pub fn refresh(&mut self, obs: &mut [f32]) -> Result<()> {
+        self.data.forward()?;
+        self.robot_state = state::read(&self.data, &self.idx);
+        self.write_obs(obs);
+        Ok(())
+    }
+
+    fn sample_command(&mut self) {
+        let c = &self.cfg.commands;
+        if self.rng.random::<f64>() < c.standing_share {
+            self.command = [0.0; 3];
+            return;
+        }
+        let mut draw = |r: [f64; 2]| if r[1] > r[0] { self.rng.random_range(r[0]..r[1]) } else { r[0] };
+        let mut cmd = [draw(c.lin_vel_x), draw(c.lin_vel_y), draw(c.ang_vel_z)];
+        if cmd[0].hypot(cmd[1]) < c.min_lin_norm {
+            cmd[0] = 0.0;
+            cmd[1] = 0.0;
+        }
+        self.command = cmd;
+    }
+
+    fn randomize_model(&mut self) -> Result<()> {
+        let dr = self.cfg.domain_rand.clone();
+        let friction = self.rng.random_range(dr.friction_scale[0]..=dr.friction_scale[1]);
+        let nbody = self.nominal.body_mass.len();
+        let mass: Vec<f64> = (0..nbody).map(|_| self.rng.random_range(dr.mass_scale[0]..=dr.mass_scale[1])).collect();
+        let nominal = self.nominal.clone();
+        let floor = self.idx.floor_geom;
+        let feet = self.idx.foot_geoms;
+        let m = self.data.model_mut();
+        for (b, s) in mass.iter().enumerate() {
+            m.body_mass_mut()[b] = nominal.body_mass[b] * s;
+            m.body_inertia_mut()[b] = nominal.body_inertia[b].map(|i| i * s);
+        }
+        // Contact friction is the larger of the two geoms' values: scale both the floor and the soles.
+        for g in [floor, feet[0], feet[1]] {
+            m.geom_friction_mut()[g][0] = nominal.geom_friction[g][0] * friction;
+        }
+        self.data.set_const()?;
+        Ok(())
+    }
+
+    fn write_obs(&mut self, obs: &mut [f32]) {
+        let s = &self.robot_state;
+        let n = &self.cfg.noise;
+        let on = n.enabled;
+        let rng = &mut self.rng;
+        let mut noise = |scale: f64| if on && scale > 0.0 { rng.random_range(-scale..=scale) } else { 0.0 };
+        for i in 0..3 {
+            obs[OBS_LIN_VEL + i] = (s.lin_vel[i] + noise(n.lin_vel)) as f32;
+            obs[OBS_ANG_VEL + i] = (s.ang_vel[i] + noise(n.ang_vel)) as f32;
+        }
+        let off = self.perturbation.gravity_offset;
+        let mut g = Vector3::from_fn(|i, _| s.gravity[i] + off[i] + noise(n.gravity));
+        if g.norm() > 1e-9 {
+            g.normalize_mut();
+        }
+        for i in 0..3 {
+            obs[OBS_GRAVITY + i] = g[i] as f32;
+        }
+        for i in 0..N_MOTORS {
+            obs[OBS_Q + i] = (s.actuated_pos[i] - self.nominal_actuated[i] + noise(n.motor_pos)) as f32;
+            obs[OBS_QD + i] = (s.actuated_vel[i] + noise(n.motor_vel)) as f32;
+            obs[OBS_LAST_ACTION + i] = self.last_action[i] as f32;
+        }
+        let c = self.command();
+        for i in 0..3 {
+            obs[OBS_COMMAND + i] = c[i] as f32;
+        }
+    }
+
+    fn apply_forces(&mut self) {
+        let p = self.perturbation;
+        let torso = self.idx.torso_body;
+        let feet = self.idx.foot_bodies;
+        let b = self.idx.base_qpos;
+        let q = quat_of(&self.data.qpos()[b + 3..b + 7]);
+        let f_torso = q.transform_vector(&Vector3::from(p.torso_force_local));
+        let xfrc = self.data.xfrc_applied_mut();
+        xfrc[torso][..3].copy_from_slice(f_torso.as_slice());
+        for f in 0..2 {
+            xfrc[feet[f]][..3].copy_from_slice(&p.foot_force[f]);
+        }
+    }
+
+    fn push(&mut self) {
+        let [lo, hi] = self.cfg.push.velocity;
+        let mag = if hi > lo { self.rng.random_range(lo..=hi) } else { lo };
+        let dir = self.rng.random_range(0.0..std::f64::consts::TAU);
+        let dof = self.idx.base_dof;
+        let qvel = self.data.qvel_mut();
+        qvel[dof] += mag * dir.cos();
+        qvel[dof + 1] += mag * dir.sin();
+    }
+
+    fn steps_of(&self, seconds: f64) -> usize {
+        ((seconds / self.cfg.policy_dt()).round() as usize).max(1)
+    }
+
+    fn fallen(&self) -> bool {
+        let t = &self.cfg.termination;
+        let s = &self.robot_state;
+        s.base_pos[2] < t.min_base_height
+            || s.roll.abs() > t.max_tilt
+            || s.pitch.abs() > t.max_tilt
+            || (t.body_contact && s.body_contact)
+    }
+
+    /// Physics steps with the current ctrl; Err or blow-up → false.
+    fn simulate(&mut self) -> bool {
+        for _ in 0..self.cfg.decimation {
+            self.apply_forces();
+            if self.data.step().is_err() {
+                return false;
+            }
+        }
+        !self.data.is_unstable()
+    }
+}
+
+impl Task for TopaEnv {
+    fn obs_dim(&self) -> usize {
+        OBS_DIM
+    }
+    fn action_dim(&self) -> usize {
+        ACT_DIM
+    }
+
+    fn reset(&mut self, obs: &mut [f32]) -> Result<()> {
+        if obs.len() != OBS_DIM {
+            return Err(EnvError::Shape(format!("observation buffer has {} values, expected {OBS_DIM}", obs.len())));
+        }
+        if self.cfg.domain_rand.enabled {
+            self.randomize_model()?;
+        }
+        self.data.reset_keyframe(self.idx.stand_key)?;
+        self.data.set_time(0.0);
+        self.data.xfrc_applied_mut().iter_mut().for_each(|w| *w = [0.0; 6]);
+        // A small random initial base velocity, so episodes do not all start identically.
+        let dof = self.idx.base_dof;
+        for i in 0..6 {
+            let v = self.rng.random_range(-0.1..=0.1);
+            self.data.qvel_mut()[dof + i] = v;
+        }
+        self.data.forward()?;
+        self.step_count = 0;
+        self.last_action = [0.0; N_MOTORS];
+        self.air_time = [0.0; 2];
+        self.last_contact = [true; 2];
+        self.terms = [0.0; N_TERMS];
+        self.sample_command();
+        self.next_resample = self.steps_of(self.cfg.commands.resample_s);
+        self.next_push = self.steps_of(self.cfg.push.interval_s);
+        self.robot_state = state::read(&self.data, &self.idx);
+        self.write_obs(obs);
+        Ok(())
+    }
+
+    fn step(&mut self, action: &[f32], obs: &mut [f32]) -> StepOutcome {
+        assert_eq!(action.len(), ACT_DIM, "action has {} values, expected {ACT_DIM}", action.len());
+        let clip = self.cfg.action_clip;
+        let a: [f64; N_MOTORS] = std::array::from_fn(|i| {
+            let v = action[i] as f64;
+            if v.is_finite() {
+                v.clamp(-clip, clip)
+            } else {
+                0.0
+            }
+        });
+        for i in 0..N_MOTORS {
+            let target = self.nominal_actuated[i] + self.cfg.action_scale * a[i];
+            self.data.ctrl_mut()[self.idx.actuators[i]] = target.clamp(self.ctrl_range[i][0], self.ctrl_range[i][1]);
+        }
+        if !self.simulate() {
+            self.terms = [0.0; N_TERMS];
+            return StepOutcome { reward: 0.0, done: true, time_out: false, diverged: true };
+        }
+        self.step_count += 1;
+        self.robot_state = state::read(&self.data, &self.idx);
+        let dt = self.cfg.policy_dt();
+        // Contact with a one-step memory, as legged_gym does: a single missed contact is not a touchdown.
+        let contact = self.robot_state.foot_contact();
+        let filtered: [bool; 2] = std::array::from_fn(|f| contact[f] || self.last_contact[f]);
+        let touchdown: [bool; 2] = std::array::from_fn(|f| filtered[f] && self.air_time[f] > 0.0);
+        for f in 0..2 {
+            self.air_time[f] += dt;
+        }
+        let air_at_touchdown = self.air_time;
+        let s = &self.robot_state;
+        let inputs = RewardInputs {
+            command: self.command(),
+            lin_vel: s.lin_vel,
+            ang_vel: s.ang_vel,
+            gravity: s.gravity,
+            base_height: s.base_pos[2],
+            action: a,
+            last_action: self.last_action,
+            joint_pos: s.joint_pos,
+            joint_dev: std::array::from_fn(|i| s.joint_pos[i] - self.nominal_joints[i]),
+            joint_soft_limits: self.joint_soft_limits,
+            motor_torque: s.motor_torque,
+            torque_soft_limit: self.torque_soft_limit,
+            foot_speed: s.foot_speed,
+            foot_contact: contact,
+            touchdown,
+            air_time: air_at_touchdown,
+        };
+        let scale = if self.cfg.rewards.scale_by_dt { dt } else { 1.0 };
+        let reward = rewards::weighted_terms(&self.cfg.rewards, &inputs, scale, &mut self.terms);
+        for f in 0..2 {
+            if filtered[f] {
+                self.air_time[f] = 0.0;
+            }
+        }
+        self.last_contact = contact;
+        self.last_action = a;
+
+        let fell = self.fallen();
+        let time_out = !fell && self.step_count >= self.cfg.max_episode_steps();
+        if self.step_count >= self.next_resample {
+            self.sample_command();
+            self.next_resample += self.steps_of(self.cfg.commands.resample_s);
+        }
+        if self.cfg.push.enabled && self.step_count >= self.next_push {
+            self.push();
+            self.next_push += self.steps_of(self.cfg.push.interval_s);
+        }
+        self.write_obs(obs);
+        let finite = reward.is_finite() && obs.iter().all(|x| x.is_finite());
+        StepOutcome { reward, done: fell || time_out || !finite, time_out, diverged: !finite }
+    }
+
+    fn term_names(&self) -> &'static [&'static str] {
+        &TERM_NAMES
+    }
+    fn terms(&self) -> &[f64] {
+        &self.terms
+    }
+    fn symmetry(&self) -> Option<Symmetry> {
+        Some(symmetry::topa())
+    }
+    fn perturbation_dim(&self) -> usize {
+        Perturbation::ADVERSARY_DIM
+    }
+    fn set_perturbation(&mut self, p: &[f32]) {
+        let torso = self.perturbation.torso_force_local;
+        self.perturbation = Perturbation::from_adversary(p);
+        self.perturbation.torso_force_local = torso;
+    }
+
+    fn save_state(&self, f: &mut Vec<f64>, u: &mut Vec<u64>) {
+        let d = &self.data;
+        for arr in [d.qpos(), d.qvel(), d.act(), d.ctrl(), d.qacc_warmstart()] {
+            f.extend_from_slice(arr);
+        }
+        f.push(d.time());
+        let m = d.model();
+        f.extend_from_slice(m.body_mass());
+        f.extend(m.body_inertia().iter().flatten());
+        f.extend(m.geom_friction().iter().map(|g| g[0]));
+        f.extend_from_slice(&self.command);
+        let o = self.command_override;
+        f.extend_from_slice(&o.unwrap_or([0.0; 3]));
+        let p = &self.perturbation;
+        f.extend(p.command_offset.iter().chain(&p.gravity_offset).chain(p.foot_force.iter().flatten()));
+        f.extend_from_slice(&p.torso_force_local);
+        f.extend_from_slice(&self.last_action);
+        f.extend_from_slice(&self.air_time);
+        u.extend([self.step_count as u64, self.next_resample as u64, self.next_push as u64, o.is_some() as u64]);
+        u.extend(self.last_contact.map(|c| c as u64));
+        task::save_rng(&self.rng, u);
+    }
+
+    fn load_state(&mut self, f: &[f64], u: &[u64]) -> Result<(usize, usize)> {
+        let mut fi = 0;
+        let mut take = |n: usize| -> Result<&[f64]> {
+            let s = f.get(fi..fi + n).ok_or_else(|| EnvError::Shape("env snapshot too short".into()))?;
+            fi += n;
+            Ok(s)
+        };
+        let (nq, nv, na, nu) = {
+            let m = self.data.model();
+            (m.nq(), m.nv(), m.na(), m.nu())
+        };
+        let (nbody, ngeom) = (self.nominal.body_mass.len(), self.nominal.geom_friction.len());
+        self.data.qpos_mut().copy_from_slice(take(nq)?);
+        self.data.qvel_mut().copy_from_slice(take(nv)?);
+        self.data.act_mut().copy_from_slice(take(na)?);
+        self.data.ctrl_mut().copy_from_slice(take(nu)?);
+        self.data.qacc_warmstart_mut().copy_from_slice(take(nv)?);
+        let t = take(1)?[0];
+        self.data.set_time(t);
+        let mass = take(nbody)?.to_vec();
+        let inertia = take(3 * nbody)?.to_vec();
+        let friction = take(ngeom)?.to_vec();
+        if mass != self.data.model().body_mass() || friction.iter().zip(self.data.model().geom_friction()).any(|(a, g)| *a != g[0]) {
+            let m = self.data.model_mut();
+            m.body_mass_mut().copy_from_slice(&mass);
+            for (b, c) in m.body_inertia_mut().iter_mut().zip(inertia.chunks_exact(3)) {
+                *b = [c[0], c[1], c[2]];
+            }
+            for (g, v) in m.geom_friction_mut().iter_mut().zip(&friction) {
+                g[0] = *v;
+            }
+            // set_const resets the Data to qpos0; restore the state afterwards.
+            let state: Vec<Vec<f64>> = [
+                self.data.qpos(),
+                self.data.qvel(),
+                self.data.act(),
+                self.data.ctrl(),
+                self.data.qacc_warmstart(),
+            ]
+            .iter()
+            .map(|a| a.to_vec())
+            .collect();
+            self.data.set_const()?;
+            self.data.qpos_mut().copy_from_slice(&state[0]);
+            self.data.qvel_mut().copy_from_slice(&state[1]);
+            self.data.act_mut().copy_from_slice(&state[2]);
+            self.data.ctrl_mut().copy_from_slice(&state[3]);
+            self.data.qacc_warmstart_mut().copy_from_slice(&state[4]);
+            self.data.set_time(t);
+        }
+        let arr3 = |s: &[f64]| [s[0], s[1], s[2]];
+        self.command = arr3(take(3)?);
+        let over = arr3(take(3)?);
+        let p = take(12)?.to_vec();
+        let torso = arr3(take(3)?);
+        self.perturbation = Perturbation {
+            command_offset: arr3(&p[0..3]),
+            gravity_offset: arr3(&p[3..6]),
+            foot_force: [arr3(&p[6..9]), arr3(&p[9..12])],
+            torso_force_local: torso,
+        };
+        self.last_action.copy_from_slice(take(N_MOTORS)?);
+        self.air_time.copy_from_slice(take(2)?);
+        let need = 6 + task::RNG_WORDS;
+        let w = u.get(..need).ok_or_else(|| EnvError::Shape("env snapshot too short".into()))?;
+        self.step_count = w[0] as usize;
+        self.next_resample = w[1] as usize;
+        self.next_push = w[2] as usize;
+        self.command_override = (w[3] != 0).then_some(over);
+        self.last_contact = [w[4] != 0, w[5] != 0];
+        self.rng = task::load_rng(&w[6..]);
+        // Derived quantities (contacts, velocities) for the observation and the next reward.
+        self.data.forward()?;
+        self.robot_state = state::read(&self.data, &self.idx);
+        Ok((fi, need))
+    }
+}

@@ -1,0 +1,200 @@
+//! The paper's 14 reward terms (Table "Rewards"), computed from a plain snapshot of the state so that each term
+//! can be checked on hand-made states.
+
+use crate::config::RewardConfig;
+use crate::robot::{ANKLE, HIP_ROLL, HIP_YAW, N_LEG, N_MOTORS};
+
+pub const N_TERMS: usize = 14;
+
+/// Term names, in the paper's table order (also the order of logs and CSV columns).
+pub const TERM_NAMES: [&str; N_TERMS] = [
+    "lin_vel_xy_tracking",
+    "ang_vel_z_tracking",
+    "lin_vel_z",
+    "ang_vel_xy",
+    "orientation",
+    "body_height",
+    "action_rate",
+    "hip_roll_deviation",
+    "hip_yaw_deviation",
+    "ankle_pitch_deviation",
+    "joint_position_limits",
+    "motor_torque_limits",
+    "feet_slip",
+    "feet_air_time",
+];
+
+/// What the rewards look at, all in SI units; velocities in the robot (torso) frame.
+#[derive(Debug, Clone, Default)]
+pub struct RewardInputs {
+    /// Commanded (v_x, v_y, w_z) — the command the policy observes.
+    pub command: [f64; 3],
+    pub lin_vel: [f64; 3],
+    pub ang_vel: [f64; 3],
+    /// Gravity direction in the robot frame (unit vector; (0, 0, −1) when upright).
+    pub gravity: [f64; 3],
+    /// Torso height above the ground, m.
+    pub base_height: f64,
+    pub action: [f64; N_MOTORS],
+    pub last_action: [f64; N_MOTORS],
+    /// Kinematic joint angles (hip roll … ankle pitch per leg), and their deviation from the nominal pose.
+    pub joint_pos: [f64; N_MOTORS],
+    pub joint_dev: [f64; N_MOTORS],
+    /// Soft joint limits [low, high] per joint.
+    pub joint_soft_limits: [[f64; 2]; N_MOTORS],
+    /// Motor torques and their soft limits, N·m.
+    pub motor_torque: [f64; N_MOTORS],
+    pub torque_soft_limit: [f64; N_MOTORS],
+    /// Horizontal speed of each foot (left, right), m/s.
+    pub foot_speed: [f64; 2],
+    pub foot_contact: [bool; 2],
+    /// A foot touched down this step.
+    pub touchdown: [bool; 2],
+    /// Time the foot spent in the air before this touchdown, s.
+    pub air_time: [f64; 2],
+}
+
+fn sq(x: f64) -> f64 {
+    x * x
+}
+
+fn kernel(err_sq: f64, sigma: f64) -> f64 {
+    (-err_sq / sigma).exp()
+}
+
+fn both_legs(dev: &[f64; N_MOTORS], dof: usize) -> f64 {
+    sq(dev[dof]) + sq(dev[N_LEG + dof])
+}
+
+/// The unweighted value of each term (the paper's "Equation" column).
+pub fn raw_terms(c: &RewardConfig, x: &RewardInputs) -> [f64; N_TERMS] {
+    let relu = |v: f64| v.max(0.0);
+    let limits: f64 = (0..N_MOTORS)
+        .map(|i| relu(x.joint_pos[i] - x.joint_soft_limits[i][1]) + relu(x.joint_soft_limits[i][0] - x.joint_pos[i]))
+        .sum();
+    let torque: f64 = (0..N_MOTORS).map(|i| relu(x.motor_torque[i].abs() - x.torque_soft_limit[i])).sum();
+    let slip: f64 = (0..2).filter(|&f| x.foot_contact[f]).map(|f| x.foot_speed[f]).sum();
+    let air: f64 = (0..2).filter(|&f| x.touchdown[f]).map(|f| (x.air_time[f] - c.air_time_target).abs()).sum();
+    [
+        kernel(sq(x.command[0] - x.lin_vel[0]) + sq(x.command[1] - x.lin_vel[1]), c.sigma_v),
+        kernel(sq(x.command[2] - x.ang_vel[2]), c.sigma_w),
+        sq(x.lin_vel[2]),
+        sq(x.ang_vel[0]) + sq(x.ang_vel[1]),
+        kernel(sq(x.gravity[0]) + sq(x.gravity[1]), c.sigma_g),
+        kernel(sq(c.base_height_target - x.base_height), c.sigma_h),
+        x.action.iter().zip(&x.last_action).map(|(a, b)| sq(a - b)).sum(),
+        kernel(both_legs(&x.joint_dev, HIP_ROLL), c.sigma_roll),
+        kernel(both_legs(&x.joint_dev, HIP_YAW), c.sigma_yaw),
+        kernel(both_legs(&x.joint_dev, ANKLE), c.sigma_pitch),
+        limits,
+        torque,
+        slip,
+        air,
+    ]
+}
+
+/// The weights, in term order.
+pub fn weights(c: &RewardConfig) -> [f64; N_TERMS] {
+    [
+        c.lin_vel_xy_tracking,
+        c.ang_vel_z_tracking,
+        c.lin_vel_z,
+        c.ang_vel_xy,
+        c.orientation,
+        c.body_height,
+        c.action_rate,
+        c.hip_roll_deviation,
+        c.hip_yaw_deviation,
+        c.ankle_pitch_deviation,
+        c.joint_position_limits,
+        c.motor_torque_limits,
+        c.feet_slip,
+        c.feet_air_time,
+    ]
+}
+
+/// Weighted terms (weight × equation × `scale`) into `out`; returns their sum, the step reward.
+pub fn weighted_terms(c: &RewardConfig, x: &RewardInputs, scale: f64, out: &mut [f64; N_TERMS]) -> f64 {
+    let raw = raw_terms(c, x);
+    let w = weights(c);
+    let mut total = 0.0;
+    for i in 0..N_TERMS {
+        out[i] = w[i] * raw[i] * scale;
+        total += out[i];
+    }
+    total
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn upright_perfect() -> RewardInputs {
+        RewardInputs {
+            command: [0.4, -0.1, 0.5],
+            lin_vel: [0.4, -0.1, 0.0],
+            ang_vel: [0.0, 0.0, 0.5],
+            gravity: [0.0, 0.0, -1.0],
+            base_height: RewardConfig::default().base_height_target,
+            joint_soft_limits: [[-1.0, 1.0]; N_MOTORS],
+            torque_soft_limit: [10.0; N_MOTORS],
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn perfect_state_earns_each_positive_weight_and_no_penalty() {
+        let c = RewardConfig::default();
+        let mut out = [0.0; N_TERMS];
+        let total = weighted_terms(&c, &upright_perfect(), 1.0, &mut out);
+        let w = weights(&c);
+        for i in 0..N_TERMS {
+            let expected = if ["feet_air_time"].contains(&TERM_NAMES[i]) || w[i] < 0.0 { 0.0 } else { w[i] };
+            assert!((out[i] - expected).abs() < 1e-12, "{}: {} vs {expected}", TERM_NAMES[i], out[i]);
+        }
+        assert!((total - (3.0 + 1.5 + 1.0 + 1.0 + 0.5 * 3.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn each_term_matches_its_equation_on_a_known_state() {
+        let c = RewardConfig::default();
+        let mut x = upright_perfect();
+        x.lin_vel = [0.1, 0.2, 0.3];
+        x.ang_vel = [0.2, -0.4, 0.0];
+        x.gravity = [0.1, -0.2, -0.97];
+        x.base_height -= 0.03;
+        x.action[0] = 0.5;
+        x.last_action[0] = 0.1;
+        x.joint_dev[HIP_ROLL] = 0.1;
+        x.joint_dev[N_LEG + HIP_ROLL] = -0.2;
+        x.joint_dev[N_LEG + HIP_YAW] = 0.3;
+        x.joint_dev[ANKLE] = 0.2;
+        x.joint_pos[2] = 1.3; // 0.3 past the soft upper limit
+        x.joint_pos[7] = -1.1; // 0.1 below the soft lower limit
+        x.motor_torque[3] = -14.0; // 4 N·m past its soft limit
+        x.foot_speed = [0.3, 0.7];
+        x.foot_contact = [true, false];
+        x.touchdown = [false, true];
+        x.air_time = [0.0, 0.2];
+        let r = raw_terms(&c, &x);
+        let e = |a: f64, b: f64| assert!((a - b).abs() < 1e-12, "{a} vs {b}");
+        e(r[0], (-(0.3f64.powi(2) + 0.3f64.powi(2)) / c.sigma_v).exp());
+        e(r[1], (-(0.5f64.powi(2)) / c.sigma_w).exp());
+        e(r[2], 0.09);
+        e(r[3], 0.04 + 0.16);
+        e(r[4], (-(0.01 + 0.04) / c.sigma_g).exp());
+        e(r[5], (-(0.03f64.powi(2)) / c.sigma_h).exp());
+        e(r[6], 0.16);
+        e(r[7], (-(0.01 + 0.04) / c.sigma_roll).exp());
+        e(r[8], (-0.09 / c.sigma_yaw).exp());
+        e(r[9], (-0.04 / c.sigma_pitch).exp());
+        e(r[10], 0.4);
+        e(r[11], 4.0);
+        e(r[12], 0.3);
+        e(r[13], 0.3);
+        let mut out = [0.0; N_TERMS];
+        let total = weighted_terms(&c, &x, 0.02, &mut out);
+        e(out[2], -1.0 * 0.09 * 0.02);
+        e(total, out.iter().sum());
+    }
+}

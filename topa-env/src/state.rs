@@ -1,0 +1,120 @@
+//! What the robot is doing right now, read off a `Data` in the robot's terms: base velocities in the torso
+//! frame, gravity direction, roll/pitch, motor and joint positions, velocities and torques, foot contacts.
+
+use mujoco_sys::Data;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+
+use crate::indices::RobotIndices;
+use crate::robot::{self, ModelKind, N_MOTORS};
+
+/// Minimum normal force for a foot to count as in contact, N (filters grazing contacts).
+pub const CONTACT_FORCE_THRESHOLD: f64 = 1.0;
+
+#[derive(Debug, Clone, Default)]
+pub struct RobotState {
+    pub base_pos: [f64; 3],
+    /// Torso orientation (w, x, y, z).
+    pub base_quat: [f64; 4],
+    /// Base linear and angular velocity in the torso frame.
+    pub lin_vel: [f64; 3],
+    pub ang_vel: [f64; 3],
+    /// Unit gravity direction in the torso frame.
+    pub gravity: [f64; 3],
+    pub roll: f64,
+    pub pitch: f64,
+    pub yaw: f64,
+    /// Positions/velocities of the joints the actuators drive (motor space on the closed model).
+    pub actuated_pos: [f64; N_MOTORS],
+    pub actuated_vel: [f64; N_MOTORS],
+    /// Motor-space positions/velocities/torques (on the open model: mapped from joint space through M⁻¹, Mᵀ).
+    pub motor_pos: [f64; N_MOTORS],
+    pub motor_vel: [f64; N_MOTORS],
+    pub motor_torque: [f64; N_MOTORS],
+    /// Kinematic joint angles/velocities/torques (hip roll … ankle pitch).
+    pub joint_pos: [f64; N_MOTORS],
+    pub joint_vel: [f64; N_MOTORS],
+    pub joint_torque: [f64; N_MOTORS],
+    /// Normal contact force on each foot from the floor, N.
+    pub foot_force: [f64; 2],
+    /// Horizontal speed of each foot, m/s.
+    pub foot_speed: [f64; 2],
+    /// A robot body other than a foot touches the floor.
+    pub body_contact: bool,
+}
+
+impl RobotState {
+    pub fn foot_contact(&self) -> [bool; 2] {
+        self.foot_force.map(|f| f > CONTACT_FORCE_THRESHOLD)
+    }
+}
+
+pub fn quat_of(q: &[f64]) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]))
+}
+
+/// Reads the state; `d` must be after `forward`/`step` (contacts and velocities valid).
+pub fn read(d: &Data, idx: &RobotIndices) -> RobotState {
+    let qpos = d.qpos();
+    let qvel = d.qvel();
+    let b = idx.base_qpos;
+    let q = quat_of(&qpos[b + 3..b + 7]);
+    let world_lin = Vector3::new(qvel[idx.base_dof], qvel[idx.base_dof + 1], qvel[idx.base_dof + 2]);
+    // MuJoCo: a free joint's linear velocity is in the world frame, its angular velocity in the body frame.
+    let lin = q.inverse_transform_vector(&world_lin);
+    let g = q.inverse_transform_vector(&Vector3::new(0.0, 0.0, -1.0));
+    let (roll, pitch, yaw) = q.euler_angles();
+    let mut s = RobotState {
+        base_pos: [qpos[b], qpos[b + 1], qpos[b + 2]],
+        base_quat: [qpos[b + 3], qpos[b + 4], qpos[b + 5], qpos[b + 6]],
+        lin_vel: [lin.x, lin.y, lin.z],
+        ang_vel: [qvel[idx.base_dof + 3], qvel[idx.base_dof + 4], qvel[idx.base_dof + 5]],
+        gravity: [g.x, g.y, g.z],
+        roll,
+        pitch,
+        yaw,
+        ..Default::default()
+    };
+    let force = d.actuator_force();
+    for i in 0..N_MOTORS {
+        s.actuated_pos[i] = qpos[idx.actuated_qpos[i]];
+        s.actuated_vel[i] = qvel[idx.actuated_dof[i]];
+        s.joint_pos[i] = qpos[idx.joint_qpos[i]];
+        s.joint_vel[i] = qvel[idx.joint_dof[i]];
+    }
+    let actuated_torque: [f64; N_MOTORS] = std::array::from_fn(|i| force[idx.actuators[i]]);
+    match idx.kind {
+        ModelKind::Closed => {
+            s.motor_pos = s.actuated_pos;
+            s.motor_vel = s.actuated_vel;
+            s.motor_torque = actuated_torque;
+            s.joint_torque = robot::motor_to_joint_torque(&actuated_torque);
+        }
+        ModelKind::Open => {
+            s.motor_pos = robot::joint_to_motor(&s.actuated_pos);
+            s.motor_vel = robot::joint_to_motor(&s.actuated_vel);
+            s.motor_torque = robot::joint_to_motor_torque(&actuated_torque);
+            s.joint_torque = actuated_torque;
+        }
+    }
+    for c in d.contacts().iter().enumerate() {
+        let (i, con) = c;
+        let (g1, g2) = (con.geom1 as usize, con.geom2 as usize);
+        let other = if g1 == idx.floor_geom {
+            g2
+        } else if g2 == idx.floor_geom {
+            g1
+        } else {
+            continue;
+        };
+        if let Some(f) = idx.foot_geoms.iter().position(|&fg| fg == other) {
+            s.foot_force[f] += d.contact_force(i).map(|w| w[0]).unwrap_or(0.0);
+        } else if idx.fall_bodies.contains(&(d.model().geom_bodyid()[other] as usize)) {
+            s.body_contact = true;
+        }
+    }
+    for f in 0..2 {
+        let v = d.body_velocity(idx.foot_bodies[f], false);
+        s.foot_speed[f] = v[3].hypot(v[4]);
+    }
+    s
+}

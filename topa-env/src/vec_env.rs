@@ -1,0 +1,350 @@
+//! `VecEnv`: what the trainer drives; `BatchEnv`: N tasks stepped in parallel on a rayon pool with auto-reset,
+//! flat f32 buffers and no allocation per step. Each task owns its random stream, so the result of a seed does
+//! not depend on the thread count.
+
+use rayon::prelude::*;
+
+use crate::error::{EnvError, Result};
+use crate::symmetry::Symmetry;
+use crate::task::Task;
+
+/// Statistics of the episodes that ended since the last `take_episode_stats`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EpisodeStats {
+    pub episodes: usize,
+    pub mean_return: f64,
+    pub mean_length: f64,
+    /// Share of finished episodes that ended by time-out (not a fall).
+    pub time_out_share: f64,
+    /// Mean episode sum of each reward term, in `term_names` order.
+    pub mean_terms: Vec<f64>,
+    /// Envs reset because their simulation failed or blew up.
+    pub diverged: usize,
+}
+
+pub trait VecEnv: Send {
+    fn num_envs(&self) -> usize;
+    fn obs_dim(&self) -> usize;
+    fn action_dim(&self) -> usize;
+    /// Resets every env.
+    fn reset(&mut self) -> Result<()>;
+    /// One policy step for all envs (`actions`: num_envs × action_dim, row-major). Finished envs are reset: their
+    /// row of `obs` is the new episode's first observation, and `terminal_obs` holds the last one.
+    fn step(&mut self, actions: &[f32]) -> Result<()>;
+    fn obs(&self) -> &[f32];
+    fn rewards(&self) -> &[f32];
+    /// 1.0 where the episode ended this step.
+    fn dones(&self) -> &[f32];
+    /// 1.0 where it ended by time-out only.
+    fn time_outs(&self) -> &[f32];
+    /// The final observation of episodes that ended this step (rows where `dones` is 1; others stale).
+    fn terminal_obs(&self) -> &[f32];
+    fn term_names(&self) -> Vec<String>;
+    fn take_episode_stats(&mut self) -> EpisodeStats;
+    fn symmetry(&self) -> Option<Symmetry>;
+    /// Size of each env's perturbation vector (0: none).
+    fn perturbation_dim(&self) -> usize;
+    /// Sets every env's perturbation (num_envs × perturbation_dim).
+    fn set_perturbations(&mut self, p: &[f32]) -> Result<()>;
+    /// The complete state of all envs (to resume bit for bit).
+    fn save_state(&self) -> EnvSnapshot;
+    fn load_state(&mut self, s: &EnvSnapshot) -> Result<()>;
+}
+
+/// A batch's state: per-env f64 and u64 rows of fixed width, plus the observation buffer.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EnvSnapshot {
+    pub f64_width: usize,
+    pub f64s: Vec<f64>,
+    pub u64_width: usize,
+    pub u64s: Vec<u64>,
+    pub obs: Vec<f32>,
+}
+
+/// Per-env running episode sums.
+#[derive(Debug, Clone, Default)]
+struct Episode {
+    ret: f64,
+    len: usize,
+    terms: Vec<f64>,
+}
+
+/// What finished, collected per step without allocation.
+#[derive(Debug, Clone, Default)]
+struct Finished {
+    episodes: usize,
+    time_outs: usize,
+    ret: f64,
+    len: f64,
+    terms: Vec<f64>,
+    diverged: usize,
+}
+
+pub struct BatchEnv<T: Task> {
+    tasks: Vec<T>,
+    episodes: Vec<Episode>,
+    obs: Vec<f32>,
+    terminal_obs: Vec<f32>,
+    rewards: Vec<f32>,
+    dones: Vec<f32>,
+    time_outs: Vec<f32>,
+    /// Per-env flags set during a step (episode ended, and how), reduced afterwards.
+    ended: Vec<(bool, bool, bool)>,
+    finished: Finished,
+    pool: Option<rayon::ThreadPool>,
+    obs_dim: usize,
+    act_dim: usize,
+    reset_errors: Vec<Option<EnvError>>,
+}
+
+impl<T: Task> BatchEnv<T> {
+    /// A batch of `tasks`, stepped on a pool of `threads` (0 = rayon's global pool).
+    pub fn new(tasks: Vec<T>, threads: usize) -> Result<Self> {
+        let first = tasks.first().ok_or_else(|| EnvError::Config("a batch needs at least one env".into()))?;
+        let (obs_dim, act_dim, nterms) = (first.obs_dim(), first.action_dim(), first.term_names().len());
+        let n = tasks.len();
+        let pool = if threads == 0 {
+            None
+        } else {
+            Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .map_err(|e| EnvError::Config(format!("thread pool: {e}")))?,
+            )
+        };
+        Ok(BatchEnv {
+            tasks,
+            episodes: vec![Episode { terms: vec![0.0; nterms], ..Default::default() }; n],
+            obs: vec![0.0; n * obs_dim],
+            terminal_obs: vec![0.0; n * obs_dim],
+            rewards: vec![0.0; n],
+            dones: vec![0.0; n],
+            time_outs: vec![0.0; n],
+            ended: vec![(false, false, false); n],
+            finished: Finished { terms: vec![0.0; nterms], ..Default::default() },
+            pool,
+            obs_dim,
+            act_dim,
+            reset_errors: (0..n).map(|_| None).collect(),
+        })
+    }
+
+    pub fn tasks(&self) -> &[T] {
+        &self.tasks
+    }
+    pub fn tasks_mut(&mut self) -> &mut [T] {
+        &mut self.tasks
+    }
+}
+
+impl<T: Task> VecEnv for BatchEnv<T> {
+    fn num_envs(&self) -> usize {
+        self.tasks.len()
+    }
+    fn obs_dim(&self) -> usize {
+        self.obs_dim
+    }
+    fn action_dim(&self) -> usize {
+        self.act_dim
+    }
+
+    fn reset(&mut self) -> Result<()> {
+        let od = self.obs_dim;
+        let (tasks, obs, episodes) = (&mut self.tasks, &mut self.obs, &mut self.episodes);
+        let run = || {
+            tasks.par_iter_mut().zip(obs.par_chunks_mut(od)).zip(episodes.par_iter_mut()).try_for_each(
+                |((t, o), e)| {
+                    e.ret = 0.0;
+                    e.len = 0;
+                    e.terms.iter_mut().for_each(|x| *x = 0.0);
+                    t.reset(o)
+                },
+            )
+        };
+        run_on(&self.pool, run)
+    }
+
+    fn step(&mut self, actions: &[f32]) -> Result<()> {
+        let (n, od, ad) = (self.tasks.len(), self.obs_dim, self.act_dim);
+        if actions.len() != n * ad {
+            return Err(EnvError::Shape(format!(
+                "actions hold {} values, expected {n} envs × {ad}",
+                actions.len()
+            )));
+        }
+        let BatchEnv { tasks, episodes, obs, terminal_obs, rewards, dones, time_outs, ended, reset_errors, pool, .. } =
+            self;
+        let work = || {
+            tasks
+                .par_iter_mut()
+                .zip(actions.par_chunks(ad))
+                .zip(obs.par_chunks_mut(od))
+                .zip(terminal_obs.par_chunks_mut(od))
+                .zip(episodes.par_iter_mut())
+                .zip(rewards.par_iter_mut())
+                .zip(dones.par_iter_mut())
+                .zip(time_outs.par_iter_mut())
+                .zip(ended.par_iter_mut())
+                .zip(reset_errors.par_iter_mut())
+                .for_each(|(((((((((t, a), o), term), e), r), d), to), end), err)| {
+                    let out = t.step(a, o);
+                    e.ret += out.reward;
+                    e.len += 1;
+                    for (sum, v) in e.terms.iter_mut().zip(t.terms()) {
+                        *sum += v;
+                    }
+                    *r = out.reward as f32;
+                    *d = if out.done { 1.0 } else { 0.0 };
+                    *to = if out.time_out && !out.diverged { 1.0 } else { 0.0 };
+                    *end = (out.done, out.time_out && !out.diverged, out.diverged);
+                    if out.done {
+                        term.copy_from_slice(o);
+                        if let Err(x) = t.reset(o) {
+                            *err = Some(x);
+                        }
+                    }
+                })
+        };
+        run_on(pool, work);
+        self.collect_finished()
+    }
+
+    fn obs(&self) -> &[f32] {
+        &self.obs
+    }
+    fn rewards(&self) -> &[f32] {
+        &self.rewards
+    }
+    fn dones(&self) -> &[f32] {
+        &self.dones
+    }
+    fn time_outs(&self) -> &[f32] {
+        &self.time_outs
+    }
+    fn terminal_obs(&self) -> &[f32] {
+        &self.terminal_obs
+    }
+    fn term_names(&self) -> Vec<String> {
+        self.tasks[0].term_names().iter().map(|s| s.to_string()).collect()
+    }
+
+    fn take_episode_stats(&mut self) -> EpisodeStats {
+        let f = std::mem::replace(
+            &mut self.finished,
+            Finished { terms: vec![0.0; self.tasks[0].term_names().len()], ..Default::default() },
+        );
+        let k = f.episodes.max(1) as f64;
+        EpisodeStats {
+            episodes: f.episodes,
+            mean_return: f.ret / k,
+            mean_length: f.len / k,
+            time_out_share: f.time_outs as f64 / k,
+            mean_terms: f.terms.iter().map(|t| t / k).collect(),
+            diverged: f.diverged,
+        }
+    }
+
+    fn symmetry(&self) -> Option<Symmetry> {
+        self.tasks[0].symmetry()
+    }
+    fn perturbation_dim(&self) -> usize {
+        self.tasks[0].perturbation_dim()
+    }
+    fn set_perturbations(&mut self, p: &[f32]) -> Result<()> {
+        let pd = self.perturbation_dim();
+        if pd == 0 || p.len() != pd * self.tasks.len() {
+            return Err(EnvError::Shape(format!(
+                "perturbations hold {} values, expected {} envs × {pd}",
+                p.len(),
+                self.tasks.len()
+            )));
+        }
+        for (t, row) in self.tasks.iter_mut().zip(p.chunks_exact(pd)) {
+            t.set_perturbation(row);
+        }
+        Ok(())
+    }
+
+    fn save_state(&self) -> EnvSnapshot {
+        let mut s = EnvSnapshot { obs: self.obs.clone(), ..Default::default() };
+        for (i, t) in self.tasks.iter().enumerate() {
+            let (f0, u0) = (s.f64s.len(), s.u64s.len());
+            t.save_state(&mut s.f64s, &mut s.u64s);
+            let e = &self.episodes[i];
+            s.f64s.push(e.ret);
+            s.f64s.extend_from_slice(&e.terms);
+            s.u64s.push(e.len as u64);
+            if i == 0 {
+                s.f64_width = s.f64s.len() - f0;
+                s.u64_width = s.u64s.len() - u0;
+            }
+        }
+        s
+    }
+
+    fn load_state(&mut self, s: &EnvSnapshot) -> Result<()> {
+        let n = self.tasks.len();
+        if s.obs.len() != self.obs.len() || s.f64s.len() != n * s.f64_width || s.u64s.len() != n * s.u64_width {
+            return Err(EnvError::Shape(format!(
+                "env snapshot is for a different batch ({} observations for {n} envs × {})",
+                s.obs.len() / self.obs_dim.max(1),
+                self.obs_dim
+            )));
+        }
+        let nterms = self.tasks[0].term_names().len();
+        for (i, t) in self.tasks.iter_mut().enumerate() {
+            let f = &s.f64s[i * s.f64_width..(i + 1) * s.f64_width];
+            let u = &s.u64s[i * s.u64_width..(i + 1) * s.u64_width];
+            let (fi, ui) = t.load_state(f, u)?;
+            if fi + 1 + nterms != f.len() || ui + 1 != u.len() {
+                return Err(EnvError::Shape("env snapshot rows have the wrong width for this task".into()));
+            }
+            let e = &mut self.episodes[i];
+            e.ret = f[fi];
+            e.terms.copy_from_slice(&f[fi + 1..]);
+            e.len = u[ui] as usize;
+        }
+        self.obs.copy_from_slice(&s.obs);
+        Ok(())
+    }
+}
+
+/// Runs `f` on the batch's own pool, or on rayon's global pool.
+fn run_on<R: Send>(pool: &Option<rayon::ThreadPool>, f: impl FnOnce() -> R + Send) -> R {
+    match pool {
+        Some(p) => p.install(f),
+        None => f(),
+    }
+}
+
+impl<T: Task> BatchEnv<T> {
+    /// Folds the per-env end flags into the statistics and surfaces reset errors (after the parallel part).
+    fn collect_finished(&mut self) -> Result<()> {
+        for i in 0..self.tasks.len() {
+            let (done, time_out, diverged) = self.ended[i];
+            if let Some(e) = self.reset_errors[i].take() {
+                return Err(e);
+            }
+            if !done {
+                continue;
+            }
+            let e = &mut self.episodes[i];
+            if diverged {
+                self.finished.diverged += 1;
+            } else {
+                self.finished.episodes += 1;
+                self.finished.time_outs += time_out as usize;
+                self.finished.ret += e.ret;
+                self.finished.len += e.len as f64;
+                for (sum, v) in self.finished.terms.iter_mut().zip(&e.terms) {
+                    *sum += v;
+                }
+            }
+            e.ret = 0.0;
+            e.len = 0;
+            e.terms.iter_mut().for_each(|x| *x = 0.0);
+        }
+        Ok(())
+    }
+}

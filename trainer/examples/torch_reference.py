@@ -1,0 +1,87 @@
+#!/usr/bin/env python3
+"""Torch reference for the nn micro-benchmark (examples/nn_bench.rs): the paper's PPO update shape on CPU.
+
+Per minibatch of 6144 rows: actor forward, a second actor forward on another input (symmetry term), critic forward,
+a scalar loss touching all three outputs (mean of squares), backward, plain SGD step. 24 576 samples x 5 epochs =
+20 minibatches. samples/s = 24 576 / seconds for the whole 5-epoch update (as in shared/notes/candle-cpu-profile.md);
+GFLOP/s counts 16.8 MFLOP per sample for the whole update. Also times the batched inference forward (4096 rows).
+
+    python examples/torch_reference.py --threads 1
+    python examples/torch_reference.py --threads 2
+"""
+import argparse
+import time
+
+import torch
+from torch import nn
+
+OBS, ACT = 42, 10
+HIDDEN = [512, 256, 128]
+SAMPLES, MINIBATCH, EPOCHS = 24576, 6144, 5
+FLOP_PER_SAMPLE = 16.8e6
+
+
+def mlp(dims):
+    layers = []
+    for i in range(len(dims) - 1):
+        layers.append(nn.Linear(dims[i], dims[i + 1]))
+        if i + 2 < len(dims):
+            layers.append(nn.ELU())
+    return nn.Sequential(*layers)
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--lr", type=float, default=1e-3)
+    a = p.parse_args()
+    torch.set_num_threads(a.threads)
+    torch.manual_seed(0)
+    actor = mlp([OBS] + HIDDEN + [ACT])
+    critic = mlp([OBS] + HIDDEN + [1])
+    params = list(actor.parameters()) + list(critic.parameters())
+    obs = torch.randn(SAMPLES, OBS)
+    mirrored = torch.randn(SAMPLES, OBS)
+    opt = torch.optim.SGD(params, lr=a.lr)
+
+    def update():
+        for _ in range(EPOCHS):
+            for i in range(SAMPLES // MINIBATCH):
+                x = obs[i * MINIBATCH:(i + 1) * MINIBATCH]
+                xm = mirrored[i * MINIBATCH:(i + 1) * MINIBATCH]
+                mu = actor(x)
+                mu_m = actor(xm)
+                v = critic(x)
+                loss = mu.square().mean() + mu_m.square().mean() + v.square().mean()
+                opt.zero_grad(set_to_none=True)
+                loss.backward()
+                opt.step()
+        return loss.item()
+
+    update()  # warm-up
+    best = None
+    for _ in range(a.repeats):
+        t = time.perf_counter()
+        update()
+        dt = time.perf_counter() - t
+        best = dt if best is None else min(best, dt)
+        print(f"torch threads={a.threads} update {dt:.3f} s  {SAMPLES / dt:8.0f} samples/s  "
+              f"{SAMPLES * FLOP_PER_SAMPLE / dt / 1e9:6.1f} GFLOP/s")
+    print(f"torch threads={a.threads} best: {SAMPLES / best:.0f} samples/s, "
+          f"{SAMPLES * FLOP_PER_SAMPLE / best / 1e9:.1f} GFLOP/s")
+
+    x = torch.randn(4096, OBS)
+    with torch.inference_mode():
+        for _ in range(10):
+            actor(x)
+        n = 200
+        t = time.perf_counter()
+        for _ in range(n):
+            actor(x)
+        dt = (time.perf_counter() - t) / n
+    print(f"torch threads={a.threads} inference 4096 rows: {dt * 1e3:.3f} ms/call")
+
+
+if __name__ == "__main__":
+    main()

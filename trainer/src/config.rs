@@ -1,0 +1,255 @@
+//! Training configuration: one TOML file (`configs/paper.toml`, `configs/cpu.toml`) with the environment, PPO,
+//! network, robustness losses, adversary and run settings. Unknown keys are rejected with the key's name.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use topa_env::EnvConfig;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrainConfig {
+    pub run: RunConfig,
+    pub env: EnvConfig,
+    pub ppo: PpoConfig,
+    pub network: NetworkConfig,
+    pub losses: LossConfig,
+    pub adversary: AdversaryConfig,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        TrainConfig {
+            run: RunConfig::default(),
+            env: EnvConfig::default(),
+            ppo: PpoConfig::default(),
+            network: NetworkConfig::default(),
+            losses: LossConfig::default(),
+            adversary: AdversaryConfig::default(),
+        }
+    }
+}
+
+/// How long, how parallel, how often to save.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RunConfig {
+    pub seed: u64,
+    /// Parallel environments (paper: 4096).
+    pub num_envs: usize,
+    /// Policy steps per environment per iteration (paper: 24).
+    pub steps_per_env: usize,
+    /// PPO iterations (phase 1 only, when the adversary schedule is off).
+    pub iterations: usize,
+    /// Worker threads for the environments and the networks (0 = all cores).
+    pub threads: usize,
+    /// Save a checkpoint every this many iterations (and at the end).
+    pub checkpoint_every: usize,
+    /// Keep only the newest this many checkpoints (0 = keep all).
+    pub keep_checkpoints: usize,
+}
+
+impl Default for RunConfig {
+    fn default() -> Self {
+        RunConfig {
+            seed: 1,
+            num_envs: 4096,
+            steps_per_env: 24,
+            iterations: 1000,
+            threads: 0,
+            checkpoint_every: 50,
+            keep_checkpoints: 3,
+        }
+    }
+}
+
+/// The paper's PPO table, plus rsl_rl's defaults where the paper is silent.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PpoConfig {
+    pub clip: f64,
+    pub gae_lambda: f64,
+    pub gamma: f64,
+    pub learning_rate: f64,
+    pub max_grad_norm: f64,
+    pub desired_kl: f64,
+    pub epochs: usize,
+    pub minibatches: usize,
+    /// rsl_rl defaults (not in the paper's table).
+    pub value_loss_coef: f64,
+    pub entropy_coef: f64,
+    pub clip_value_loss: bool,
+    /// Bounds of the adaptive learning rate.
+    pub lr_min: f64,
+    pub lr_max: f64,
+    /// Adaptive learning rate from the KL (rsl_rl "adaptive" schedule); false keeps it fixed.
+    pub adaptive_lr: bool,
+}
+
+impl Default for PpoConfig {
+    fn default() -> Self {
+        PpoConfig {
+            clip: 0.2,
+            gae_lambda: 0.95,
+            gamma: 0.99,
+            learning_rate: 3e-5,
+            max_grad_norm: 0.5,
+            desired_kl: 0.02,
+            epochs: 5,
+            minibatches: 4,
+            value_loss_coef: 1.0,
+            entropy_coef: 0.01,
+            clip_value_loss: true,
+            lr_min: 1e-5,
+            lr_max: 1e-2,
+            adaptive_lr: true,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NetworkConfig {
+    pub actor_hidden: Vec<usize>,
+    pub critic_hidden: Vec<usize>,
+    /// Only "elu" (the paper's) is implemented.
+    pub activation: String,
+    /// Initial standard deviation of the Gaussian policy (rsl_rl: 1.0).
+    pub init_noise_std: f64,
+}
+
+impl Default for NetworkConfig {
+    fn default() -> Self {
+        NetworkConfig {
+            actor_hidden: vec![512, 256, 128],
+            critic_hidden: vec![512, 256, 128],
+            activation: "elu".into(),
+            init_noise_std: 1.0,
+        }
+    }
+}
+
+/// The paper's robustness terms (their coefficients are not published; ours are documented here).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LossConfig {
+    /// Weight of L_symmetry = MSE(S_a(π(o)), π(S_o(o))) (paper: added with weight 1).
+    pub symmetry_coef: f64,
+    /// λ of L_decay = λ‖θ_last‖² on the actor's output layer (weights and bias).
+    pub decay_coef: f64,
+}
+
+impl Default for LossConfig {
+    fn default() -> Self {
+        LossConfig { symmetry_coef: 1.0, decay_coef: 1e-3 }
+    }
+}
+
+/// The cyclic adversary (paper: C+A). Off unless `topa train --adversary`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AdversaryConfig {
+    pub phase1_policy_iters: usize,
+    pub phase2_adversary_iters: usize,
+    pub phase3_policy_iters: usize,
+    pub cycles: usize,
+    pub hidden: Vec<usize>,
+    /// Bounds of the perturbations (tanh-scaled outputs).
+    pub max_command_offset: [f64; 3],
+    /// Largest tilt of the observed gravity vector, rad.
+    pub max_gravity_tilt: f64,
+    /// Largest force on each foot, N.
+    pub max_foot_force: f64,
+    /// Cost on perturbation magnitude in the adversary's reward (0 = pure −task reward).
+    pub magnitude_cost: f64,
+    /// Adversary PPO learning rate (its own optimizer).
+    pub learning_rate: f64,
+}
+
+impl Default for AdversaryConfig {
+    fn default() -> Self {
+        AdversaryConfig {
+            phase1_policy_iters: 1000,
+            phase2_adversary_iters: 200,
+            phase3_policy_iters: 200,
+            cycles: 5,
+            hidden: vec![512, 256, 128],
+            max_command_offset: [0.3, 0.2, 0.5],
+            max_gravity_tilt: 0.1,
+            max_foot_force: 20.0,
+            magnitude_cost: 0.0,
+            learning_rate: 3e-5,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("cannot read config {path}: {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("config {path}: {message}")]
+    Parse { path: String, message: String },
+    #[error("config {path}: {message}")]
+    Invalid { path: String, message: String },
+}
+
+impl TrainConfig {
+    /// Reads and validates a TOML config; every problem names the key and the file.
+    pub fn load(path: &Path) -> Result<TrainConfig, ConfigError> {
+        let p = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io { path: p.clone(), source })?;
+        let cfg: TrainConfig =
+            toml::from_str(&text).map_err(|e| ConfigError::Parse { path: p.clone(), message: one_line(&e.to_string()) })?;
+        cfg.validate().map_err(|message| ConfigError::Invalid { path: p, message })?;
+        Ok(cfg)
+    }
+
+    pub fn validate(&self) -> Result<(), String> {
+        self.env.validate().map_err(|e| e.to_string())?;
+        let r = &self.run;
+        if r.num_envs == 0 || r.steps_per_env == 0 {
+            return Err("run.num_envs and run.steps_per_env must be at least 1".into());
+        }
+        if r.checkpoint_every == 0 {
+            return Err("run.checkpoint_every must be at least 1".into());
+        }
+        let p = &self.ppo;
+        if p.epochs == 0 || p.minibatches == 0 {
+            return Err("ppo.epochs and ppo.minibatches must be at least 1".into());
+        }
+        if p.minibatches > r.num_envs * r.steps_per_env {
+            return Err("ppo.minibatches exceeds the number of samples per iteration".into());
+        }
+        for (k, v) in [("ppo.gamma", p.gamma), ("ppo.gae_lambda", p.gae_lambda)] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(format!("{k} must be in [0, 1], got {v}"));
+            }
+        }
+        for (k, v) in [
+            ("ppo.clip", p.clip),
+            ("ppo.learning_rate", p.learning_rate),
+            ("ppo.max_grad_norm", p.max_grad_norm),
+            ("ppo.desired_kl", p.desired_kl),
+            ("network.init_noise_std", self.network.init_noise_std),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{k} must be positive, got {v}"));
+            }
+        }
+        if self.network.activation != "elu" {
+            return Err(format!("network.activation '{}' is not supported: use \"elu\"", self.network.activation));
+        }
+        if self.network.actor_hidden.is_empty() || self.network.critic_hidden.is_empty() {
+            return Err("network hidden layer lists must not be empty".into());
+        }
+        if self.losses.symmetry_coef < 0.0 || self.losses.decay_coef < 0.0 {
+            return Err("losses.symmetry_coef and losses.decay_coef must be ≥ 0".into());
+        }
+        Ok(())
+    }
+}
+
+/// toml's errors span several lines (with a source excerpt); keep them on one.
+fn one_line(s: &str) -> String {
+    s.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('|')).collect::<Vec<_>>().join(" ")
+}
