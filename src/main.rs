@@ -53,6 +53,26 @@ enum BenchCmd {
         #[arg(long)]
         no_testspeed: bool,
     },
+    /// env-steps/s of the batched TopA env vs the bare physics bound, for batch sizes × thread counts.
+    Env {
+        #[arg(long, default_value = "closed")]
+        model: topa_env::ModelKind,
+        /// Batch sizes.
+        #[arg(long, value_delimiter = ',', default_value = "64,512,4096")]
+        envs: Vec<usize>,
+        /// Thread counts.
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<usize>,
+        /// Integrator: model (the MJCF's RK4), euler, rk4, implicit.
+        #[arg(long, default_value = "model")]
+        integrator: String,
+        /// Seconds per measurement.
+        #[arg(long, default_value_t = 2.0)]
+        seconds: f64,
+        /// Interleaved rounds (best kept).
+        #[arg(long, default_value_t = 3)]
+        rounds: usize,
+    },
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
@@ -60,6 +80,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Info { model, json } => info::run(&model, json),
         Cmd::Bench(BenchCmd::Physics { model, steps, rounds, batch, no_testspeed }) => {
             bench::physics::run(&model, steps, rounds, batch, !no_testspeed)
+        }
+        Cmd::Bench(BenchCmd::Env { model, envs, threads, integrator, seconds, rounds }) => {
+            bench::env::run(model, &envs, &threads, &integrator, seconds, rounds)
         }
     }
 }

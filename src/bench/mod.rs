@@ -1,3 +1,4 @@
 //! `topa bench …`: performance measurements printed as ratios taken in one run (never timed tests).
 
+pub mod env;
 pub mod physics;

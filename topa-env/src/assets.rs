@@ -44,6 +44,12 @@ pub fn topa_batch_on(
     threads: usize,
 ) -> Result<BatchEnv<TopaEnv>> {
     cfg.validate()?;
+    // Apply the timestep and integrator once, so the envs share one model until randomisation copies it.
+    let mut model = model;
+    if let Some(i) = cfg.integrator()? {
+        Arc::make_mut(&mut model).set_integrator(i);
+    }
+    Arc::make_mut(&mut model).set_timestep(cfg.timestep)?;
     let cfg = Arc::new(cfg.clone());
     let idx = Arc::new(RobotIndices::resolve(&model, cfg.model)?);
     let envs = (0..n)

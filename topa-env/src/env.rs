@@ -80,8 +80,13 @@ impl TopaEnv {
         seed: u64,
         index: u64,
     ) -> Result<Self> {
-        if (model.timestep() - cfg.timestep).abs() > 0.0 {
-            Arc::make_mut(&mut model).set_timestep(cfg.timestep)?;
+        let integrator = cfg.integrator()?;
+        if model.timestep() != cfg.timestep || integrator.is_some_and(|i| i != model.integrator()) {
+            let m = Arc::make_mut(&mut model);
+            m.set_timestep(cfg.timestep)?;
+            if let Some(i) = integrator {
+                m.set_integrator(i);
+            }
         }
         let nominal = Arc::new(Nominal {
             body_mass: model.body_mass().to_vec(),
@@ -456,7 +461,9 @@ impl Task for TopaEnv {
         let mass = take(nbody)?.to_vec();
         let inertia = take(3 * nbody)?.to_vec();
         let friction = take(ngeom)?.to_vec();
-        if mass != self.data.model().body_mass() || friction.iter().zip(self.data.model().geom_friction()).any(|(a, g)| *a != g[0]) {
+        if mass != self.data.model().body_mass()
+            || friction.iter().zip(self.data.model().geom_friction()).any(|(a, g)| *a != g[0])
+        {
             let m = self.data.model_mut();
             m.body_mass_mut().copy_from_slice(&mass);
             for (b, c) in m.body_inertia_mut().iter_mut().zip(inertia.chunks_exact(3)) {
@@ -466,16 +473,11 @@ impl Task for TopaEnv {
                 g[0] = *v;
             }
             // set_const resets the Data to qpos0; restore the state afterwards.
-            let state: Vec<Vec<f64>> = [
-                self.data.qpos(),
-                self.data.qvel(),
-                self.data.act(),
-                self.data.ctrl(),
-                self.data.qacc_warmstart(),
-            ]
-            .iter()
-            .map(|a| a.to_vec())
-            .collect();
+            let state: Vec<Vec<f64>> =
+                [self.data.qpos(), self.data.qvel(), self.data.act(), self.data.ctrl(), self.data.qacc_warmstart()]
+                    .iter()
+                    .map(|a| a.to_vec())
+                    .collect();
             self.data.set_const()?;
             self.data.qpos_mut().copy_from_slice(&state[0]);
             self.data.qvel_mut().copy_from_slice(&state[1]);

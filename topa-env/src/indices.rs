@@ -37,17 +37,22 @@ impl RobotIndices {
     /// Resolves and checks. Every mismatch is an error naming the object and the expected value.
     pub fn resolve(model: &Model, kind: ModelKind) -> Result<Self> {
         let spec_err = |problem: String| EnvError::Spec { model: model.name().to_string(), kind: kind.name(), problem };
-        let id = |t: ObjType, name: &str| {
-            model.id(t, name).map_err(|e| {
-                let hint = match (kind, t) {
-                    (ModelKind::Closed, ObjType::Joint) if name.ends_with("ankle_motor") => {
-                        " — is this the open model? Use --model open"
-                    }
-                    _ => "",
-                };
-                spec_err(format!("{e}{hint}"))
-            })
-        };
+        let id = |t: ObjType, name: &str| model.id(t, name).map_err(|e| spec_err(e.to_string()));
+        // Catch the common mix-up first, with the fix: each model has joints the other lacks.
+        let has_linkage = model.id(ObjType::Joint, "l_ankle_motor").is_ok();
+        match (kind, has_linkage) {
+            (ModelKind::Closed, false) => return Err(spec_err(
+                "it has no linkage joint 'l_ankle_motor', so it looks like the open (serial) model: use --model open"
+                    .into(),
+            )),
+            (ModelKind::Open, true) => {
+                return Err(spec_err(
+                    "it has the linkage joint 'l_ankle_motor', so it looks like the closed model: use --model closed"
+                        .into(),
+                ))
+            }
+            _ => {}
+        }
         if model.nu() != N_MOTORS {
             return Err(spec_err(format!("expected {N_MOTORS} actuators, found {}", model.nu())));
         }
@@ -96,12 +101,7 @@ impl RobotIndices {
             ModelKind::Closed => {
                 (0..2).map(|leg| id(ObjType::Equality, &robot::side_name(leg, "ankle_loop"))).collect::<Result<_>>()?
             }
-            ModelKind::Open => {
-                if model.id(ObjType::Joint, "l_ankle_motor").is_ok() {
-                    return Err(spec_err("it has the linkage joint 'l_ankle_motor': is it the closed model?".into()));
-                }
-                Vec::new()
-            }
+            ModelKind::Open => Vec::new(),
         };
         let stand_key = id(ObjType::Key, robot::STAND_KEY)?;
         // The keyframe's joint angles must be the spec's nominal pose (its ctrl may add gravity compensation).
@@ -109,7 +109,10 @@ impl RobotIndices {
         for (i, n) in robot::nominal_joints().iter().enumerate() {
             let q = key_qpos[model.jnt_qposadr_of(joint_jnt[i])];
             if (q - n).abs() > 1e-6 {
-                return Err(spec_err(format!("keyframe 'stand' puts joint '{}' at {q}, the spec's nominal pose is {n}", joints[i])));
+                return Err(spec_err(format!(
+                    "keyframe 'stand' puts joint '{}' at {q}, the spec's nominal pose is {n}",
+                    joints[i]
+                )));
             }
         }
         Ok(RobotIndices {
@@ -167,7 +170,8 @@ fn check_limits(
             ));
         }
         let expect_actuated = if kind == ModelKind::Closed { motor_ranges[i] } else { joint_ranges[i] };
-        for (name, j, want) in [(&actuated[i], actuated_jnt[i], expect_actuated), (&joints[i], joint_jnt[i], joint_ranges[i])]
+        for (name, j, want) in
+            [(&actuated[i], actuated_jnt[i], expect_actuated), (&joints[i], joint_jnt[i], joint_ranges[i])]
         {
             if model.jnt_limited()[j] == 0 || !close(model.jnt_range()[j], want) {
                 return Err(format!("joint '{name}' range is {:?}, the spec says {want:?}", model.jnt_range()[j]));

@@ -153,14 +153,12 @@ impl<T: Task> VecEnv for BatchEnv<T> {
         let od = self.obs_dim;
         let (tasks, obs, episodes) = (&mut self.tasks, &mut self.obs, &mut self.episodes);
         let run = || {
-            tasks.par_iter_mut().zip(obs.par_chunks_mut(od)).zip(episodes.par_iter_mut()).try_for_each(
-                |((t, o), e)| {
-                    e.ret = 0.0;
-                    e.len = 0;
-                    e.terms.iter_mut().for_each(|x| *x = 0.0);
-                    t.reset(o)
-                },
-            )
+            tasks.par_iter_mut().zip(obs.par_chunks_mut(od)).zip(episodes.par_iter_mut()).try_for_each(|((t, o), e)| {
+                e.ret = 0.0;
+                e.len = 0;
+                e.terms.iter_mut().for_each(|x| *x = 0.0);
+                t.reset(o)
+            })
         };
         run_on(&self.pool, run)
     }
@@ -168,13 +166,11 @@ impl<T: Task> VecEnv for BatchEnv<T> {
     fn step(&mut self, actions: &[f32]) -> Result<()> {
         let (n, od, ad) = (self.tasks.len(), self.obs_dim, self.act_dim);
         if actions.len() != n * ad {
-            return Err(EnvError::Shape(format!(
-                "actions hold {} values, expected {n} envs × {ad}",
-                actions.len()
-            )));
+            return Err(EnvError::Shape(format!("actions hold {} values, expected {n} envs × {ad}", actions.len())));
         }
-        let BatchEnv { tasks, episodes, obs, terminal_obs, rewards, dones, time_outs, ended, reset_errors, pool, .. } =
-            self;
+        let BatchEnv {
+            tasks, episodes, obs, terminal_obs, rewards, dones, time_outs, ended, reset_errors, pool, ..
+        } = self;
         let work = || {
             tasks
                 .par_iter_mut()

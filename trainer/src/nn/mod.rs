@@ -1,1 +1,253 @@
-//! placeholder (being written)
+//! The policy and value networks: dense layers with fast CPU kernels inside Candle's autograd.
+//!
+//! The paper's networks are MLPs, actor 42→512→256→128→10 and critic 42→512→256→128→1, ELU on the hidden layers
+//! and a linear output. [`linear`] is one fused layer `y = act(x·Wᵀ + b)` as a candle custom op: a CPU forward
+//! that adds the bias and applies ELU in the epilogue of each block of the product, and a backward that takes
+//! ELU' from the stored output (ELU'(z) = y + 1 for z ≤ 0), sums the bias gradient column-wise per block, and
+//! computes `dX = dZ·W` and `dW = dZᵀ·X` straight from the row-major buffers (no transposed copies).
+//! [`Mlp::forward`] chains such layers with the hidden activations kept out of candle's gradient bookkeeping (see
+//! [`ops`] for why and how). The PPO losses on top are ordinary candle tensor code: everything here is
+//! differentiable through `Tensor::backward` with respect to the input and every [`Linear`]'s `Var`s.
+//!
+//! [`Mlp::forward_inference`] is the rollout path: no autograd, no allocation once its buffers have grown.
+//!
+//! # Threads
+//! Three things decide how many threads run tensor code in this process:
+//! * the rayon global pool, which runs this module's kernels (and `gemm`'s parallel mode, which candle's own
+//!   matmul uses: candle 0.11 passes `gemm::Parallelism::Rayon(n)` on the *current* rayon pool, with `n` read from
+//!   `RAYON_NUM_THREADS`, or the number of physical cores when unset, at every call);
+//! * candle's element-wise ops, which split large tensors over candle's private "barrier pool", sized once, at
+//!   its first use, from `CANDLE_NUM_THREADS`, else `RAYON_NUM_THREADS`, else the physical core count;
+//! * rayon's global pool size itself: `RAYON_NUM_THREADS` or `ThreadPoolBuilder::build_global`, fixed when the
+//!   pool is first used.
+//!
+//! [`init_threads`] makes them all follow one number: it sets both environment variables and builds the rayon
+//! global pool. Call it once, first thing in `main` (before any candle op, any rayon use, and any other thread).
+//!
+//! # Determinism
+//! For a given seed the results are identical whatever the thread count: every parallel loop in this module
+//! splits its work into blocks of a fixed size and never splits a reduction across threads (see [`layer`]). The
+//! `gemm` crate's own parallel mode (used by candle's matmul elsewhere in the trainer) splits only output tiles,
+//! and its reduction order does not depend on the thread count either; the tests check both.
+
+mod kernels;
+mod layer;
+mod ops;
+#[cfg(test)]
+mod tests;
+
+use candle_core::{bail, DType, Device, Result, Storage, Tensor, Var};
+use rand::RngExt;
+use std::sync::Arc;
+
+/// A dense layer's parameters.
+#[derive(Clone, Debug)]
+pub struct Linear {
+    /// `[out, in]`, f32, CPU.
+    pub weight: Var,
+    /// `[out]`.
+    pub bias: Var,
+}
+
+/// The activation applied after a layer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Activation {
+    /// ELU with α = 1.
+    Elu,
+    /// No activation (the output layer).
+    Identity,
+}
+
+impl Linear {
+    /// PyTorch's default `nn.Linear` init: weight and bias ~ U(−1/√in, 1/√in), weight drawn first, row by row.
+    pub fn new(in_dim: usize, out_dim: usize, rng: &mut impl rand::Rng) -> Result<Linear> {
+        let bound = 1.0 / (in_dim as f64).sqrt();
+        let mut draw = |n: usize| -> Vec<f32> {
+            (0..n).map(|_| rng.random_range(-bound..bound) as f32).collect()
+        };
+        let w = draw(out_dim * in_dim);
+        let b = draw(out_dim);
+        Ok(Linear {
+            weight: Var::from_vec(w, (out_dim, in_dim), &Device::Cpu)?,
+            bias: Var::from_vec(b, out_dim, &Device::Cpu)?,
+        })
+    }
+
+    pub fn in_dim(&self) -> usize {
+        self.weight.dims()[1]
+    }
+
+    pub fn out_dim(&self) -> usize {
+        self.weight.dims()[0]
+    }
+}
+
+fn is_cpu_f32(t: &Tensor) -> bool {
+    matches!(t.device(), Device::Cpu) && t.dtype() == DType::F32
+}
+
+/// `y = act(x · Wᵀ + b)` for `x` of shape `[rows, in]`, differentiable with respect to `x`, `W` and `b` through
+/// candle's autograd. On CPU/f32 this is one fused custom op; elsewhere it falls back to [`linear_reference`].
+pub fn linear(x: &Tensor, layer: &Linear, act: Activation) -> Result<Tensor> {
+    let (w, b) = (layer.weight.as_tensor(), layer.bias.as_tensor());
+    if !(is_cpu_f32(x) && is_cpu_f32(w) && is_cpu_f32(b)) {
+        return linear_reference(x, layer, act);
+    }
+    if x.rank() != 2 {
+        bail!("nn::linear: input must be [rows, features], got {:?}", x.dims());
+    }
+    x.apply_op3_arc(w, b, Arc::new(Box::new(ops::LinearOp { act })))
+}
+
+/// The same layer written with plain candle ops (matmul + broadcast_add + elu): the reference for tests and
+/// benchmarks, and the fallback off the CPU.
+pub fn linear_reference(x: &Tensor, layer: &Linear, act: Activation) -> Result<Tensor> {
+    let z = x.matmul(&layer.weight.as_tensor().t()?)?.broadcast_add(layer.bias.as_tensor())?;
+    match act {
+        Activation::Elu => z.elu(1.0),
+        Activation::Identity => Ok(z),
+    }
+}
+
+/// A multi-layer perceptron: `hidden_activation` after every layer but the last, which is linear.
+#[derive(Clone, Debug)]
+pub struct Mlp {
+    pub layers: Vec<Linear>,
+    pub hidden_activation: Activation,
+}
+
+/// Reusable buffers for [`Mlp::forward_inference`].
+#[derive(Default, Debug, Clone)]
+pub struct MlpScratch {
+    a: Vec<f32>,
+    b: Vec<f32>,
+}
+
+impl Mlp {
+    /// `dims = [in, hidden…, out]`; PyTorch's default `nn.Linear` init, layer by layer (weight, then bias), drawn
+    /// from the caller's seeded RNG. Hidden activation: ELU.
+    pub fn new(dims: &[usize], rng: &mut impl rand::Rng) -> Result<Mlp> {
+        if dims.len() < 2 {
+            bail!("nn::Mlp::new: need at least input and output sizes, got {dims:?}");
+        }
+        let layers = dims.windows(2).map(|d| Linear::new(d[0], d[1], rng)).collect::<Result<Vec<_>>>()?;
+        Ok(Mlp { layers, hidden_activation: Activation::Elu })
+    }
+
+    fn activation(&self, l: usize) -> Activation {
+        if l + 1 == self.layers.len() {
+            Activation::Identity
+        } else {
+            self.hidden_activation
+        }
+    }
+
+    pub fn in_dim(&self) -> usize {
+        self.layers[0].in_dim()
+    }
+
+    pub fn out_dim(&self) -> usize {
+        self.last_layer().out_dim()
+    }
+
+    /// Differentiable forward of `x: [rows, in]` → `[rows, out]`.
+    pub fn forward(&self, x: &Tensor) -> Result<Tensor> {
+        let all_cpu_f32 = is_cpu_f32(x)
+            && self.layers.iter().all(|l| is_cpu_f32(l.weight.as_tensor()) && is_cpu_f32(l.bias.as_tensor()));
+        if !all_cpu_f32 {
+            return self.forward_reference(x);
+        }
+        let (rows, _) = x.dims2()?;
+        let n = self.layers.len();
+        let ctx = ops::ChainCtx::new(rows, n, self.hidden_activation);
+        let mut h = x.clone();
+        for (l, layer) in self.layers.iter().enumerate() {
+            let op = ops::ChainOp { ctx: ctx.clone(), l, n_layers: n };
+            h = h.apply_op3_arc(layer.weight.as_tensor(), layer.bias.as_tensor(), Arc::new(Box::new(op)))?;
+        }
+        Ok(h)
+    }
+
+    /// The same network through one [`linear`] op per layer (every hidden activation a real graph tensor).
+    pub fn forward_layerwise(&self, x: &Tensor) -> Result<Tensor> {
+        let mut h = x.clone();
+        for (l, layer) in self.layers.iter().enumerate() {
+            h = linear(&h, layer, self.activation(l))?;
+        }
+        Ok(h)
+    }
+
+    /// The same network with plain candle ops ([`linear_reference`]).
+    pub fn forward_reference(&self, x: &Tensor) -> Result<Tensor> {
+        let mut h = x.clone();
+        for (l, layer) in self.layers.iter().enumerate() {
+            h = linear_reference(&h, layer, self.activation(l))?;
+        }
+        Ok(h)
+    }
+
+    /// The parameters, `[w0, b0, w1, b1, …]`.
+    pub fn vars(&self) -> Vec<Var> {
+        self.layers.iter().flat_map(|l| [l.weight.clone(), l.bias.clone()]).collect()
+    }
+
+    pub fn last_layer(&self) -> &Linear {
+        self.layers.last().expect("an Mlp has at least one layer")
+    }
+
+    /// Inference without autograd: `x` holds `rows` row-major observations; `out` is resized to `rows × out`.
+    /// Buffers in `scratch` and `out` only ever grow, so once warmed up to the largest batch a call allocates
+    /// nothing of its own. Same arithmetic as [`Mlp::forward`] (bit-identical results).
+    ///
+    /// # Panics
+    /// If `x.len() != rows × in`, or the parameters are not contiguous f32 CPU tensors.
+    pub fn forward_inference(&self, x: &[f32], rows: usize, out: &mut Vec<f32>, scratch: &mut MlpScratch) {
+        let n_layers = self.layers.len();
+        assert_eq!(x.len(), rows * self.in_dim(), "nn::Mlp::forward_inference: input size");
+        let MlpScratch { a, b } = scratch;
+        let mut k = self.in_dim();
+        for (l, layer) in self.layers.iter().enumerate() {
+            let n = layer.out_dim();
+            let act = self.activation(l);
+            let (ws, wl) = layer.weight.storage_and_layout();
+            let (bs, bl) = layer.bias.storage_and_layout();
+            let w = param_slice(&ws, wl);
+            let bias = param_slice(&bs, bl);
+            let last = l + 1 == n_layers;
+            // Input: x for the first layer, else the buffer the previous layer wrote (a for even l, b for odd).
+            let (src, dst): (&[f32], &mut Vec<f32>) = match (l == 0, l % 2 == 0) {
+                (true, _) => (x, if last { &mut *out } else { &mut *a }),
+                (false, false) => (&a[..rows * k], if last { &mut *out } else { &mut *b }),
+                (false, true) => (&b[..rows * k], if last { &mut *out } else { &mut *a }),
+            };
+            if last {
+                dst.clear();
+                dst.resize(rows * n, 0.0);
+            } else if dst.len() < rows * n {
+                dst.resize(rows * n, 0.0);
+            }
+            layer::forward(layer::MatRef::row_major(src, k), rows, k, w, bias, n, act, &mut dst[..rows * n]);
+            k = n;
+        }
+    }
+}
+
+fn param_slice<'a>(s: &'a Storage, l: &candle_core::Layout) -> &'a [f32] {
+    let Storage::Cpu(c) = s else { panic!("nn: parameters must be on the CPU") };
+    ops::slice_of(c, l, "parameter").expect("nn: parameters must be contiguous f32")
+}
+
+/// Makes this module's kernels, candle (matmul and element-wise ops) and gemm all use `n` threads; see the
+/// module docs. Call once, first thing in `main`, before any candle op or rayon use and before spawning threads.
+/// Fails if the rayon global pool already exists with a different size.
+pub fn init_threads(n: usize) -> Result<()> {
+    let n = n.max(1);
+    // Environment writes are only sound while no other thread reads the environment: hence "first thing".
+    std::env::set_var("RAYON_NUM_THREADS", n.to_string());
+    std::env::set_var("CANDLE_NUM_THREADS", n.to_string());
+    match rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
+        Ok(()) => Ok(()),
+        Err(_) if rayon::current_num_threads() == n => Ok(()),
+        Err(e) => bail!("nn::init_threads({n}): rayon global pool already has {} threads: {e}", rayon::current_num_threads()),
+    }
+}

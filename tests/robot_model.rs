@@ -1,0 +1,212 @@
+//! The TopA MJCF models against the paper and the spec: linkage accuracy, mass, height, left/right mirror
+//! symmetry, standing under PD, open vs closed agreement, and spec mismatches caught at start-up.
+
+use std::sync::Arc;
+
+use mujoco_sys::{ffi, Data, Model, ObjType};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use topa_env::robot::{self, ModelKind, N_MOTORS};
+use topa_env::{assets, RobotIndices};
+
+fn load(kind: ModelKind) -> (Arc<Model>, RobotIndices) {
+    let m = assets::load_model(kind).unwrap();
+    let idx = RobotIndices::resolve(&m, kind).unwrap();
+    (m, idx)
+}
+
+/// Holds the floating base still in the air (a test stand), so only the legs move.
+fn pin_base(d: &mut Data, idx: &RobotIndices, height: f64) {
+    let (q, v) = (idx.base_qpos, idx.base_dof);
+    d.qpos_mut()[q..q + 7].copy_from_slice(&[0.0, 0.0, height, 1.0, 0.0, 0.0, 0.0]);
+    d.qvel_mut()[v..v + 6].fill(0.0);
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    v[v.len() / 2]
+}
+
+#[test]
+fn closed_linkage_tracks_the_paper_coupling_under_random_motor_targets() {
+    let (model, idx) = load(ModelKind::Closed);
+    assert_eq!(model.timestep(), 0.005, "the linkage is tested at the training timestep");
+    let knee = |leg: usize| idx.joint_qpos[leg * 5 + robot::KNEE];
+    let ankle = |leg: usize| idx.joint_qpos[leg * 5 + robot::ANKLE];
+    let motor = |leg: usize| idx.actuated_qpos[leg * 5 + robot::ANKLE];
+    let ranges = robot::actuated_range(ModelKind::Closed);
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut d = Data::new(model.clone()).unwrap();
+    d.reset_keyframe(idx.stand_key).unwrap();
+    let (mut moving_ang, mut moving_res, mut rest_ang, mut rest_res) = (vec![], vec![], vec![], vec![]);
+    let steps_3s = (3.0 / model.timestep()) as usize;
+    let steps_rest = (2.0 / model.timestep()) as usize;
+    for step in 0..steps_3s + steps_rest {
+        if step < steps_3s && step % 4 == 0 {
+            for i in 0..N_MOTORS {
+                let [lo, hi] = ranges[i];
+                d.ctrl_mut()[i] = rng.random_range(lo..hi);
+            }
+        }
+        pin_base(&mut d, &idx, 1.0);
+        d.step().unwrap();
+        for leg in 0..2 {
+            let q = d.qpos();
+            let err = (q[ankle(leg)] - (q[motor(leg)] - q[knee(leg)])).abs();
+            let res = d.equality_residual(idx.loops[leg]);
+            if step < steps_3s {
+                moving_ang.push(err);
+                moving_res.push(res);
+            } else if step >= steps_3s + steps_rest - 10 {
+                rest_ang.push(err);
+                rest_res.push(res);
+            }
+        }
+    }
+    let max = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
+    let (ma, mr, ra, rr) = (max(&moving_ang), max(&moving_res), max(&rest_ang), max(&rest_res));
+    eprintln!(
+        "linkage in motion: ankle error max {ma:.2e} rad, median {:.2e}; connect residual max {mr:.2e} m, median {:.2e}",
+        median(&mut moving_ang),
+        median(&mut moving_res)
+    );
+    eprintln!("linkage at rest:   ankle error max {ra:.2e} rad; connect residual max {rr:.2e} m");
+    assert!(ma < 1e-2, "ankle ≠ ankle motor − knee by {ma} rad in motion");
+    assert!(ra < 1e-3, "ankle ≠ ankle motor − knee by {ra} rad at rest");
+    assert!(mr < 1e-3, "loop opened by {mr} m in motion");
+    assert!(rr < 1e-4, "loop opened by {rr} m at rest");
+}
+
+/// Highest point of a geom (boxes, spheres, capsules, cylinders; others by their size as a box).
+fn geom_top(m: &Model, d: &Data, g: usize) -> f64 {
+    let (p, r, s) = (d.geom_xpos()[g], d.geom_xmat()[g], m.geom_size()[g]);
+    // Row 2 of the rotation matrix: the world z of each geom axis.
+    let az = [r[6].abs(), r[7].abs(), r[8].abs()];
+    p[2] + match m.geom_type()[g] as u32 {
+        ffi::mjGEOM_SPHERE => s[0],
+        ffi::mjGEOM_CAPSULE => s[0] + s[1] * az[2],
+        ffi::mjGEOM_CYLINDER => s[0] * (1.0 - az[2] * az[2]).sqrt() + s[1] * az[2],
+        ffi::mjGEOM_PLANE => f64::MIN,
+        _ => s[0] * az[0] + s[1] * az[1] + s[2] * az[2],
+    }
+}
+
+#[test]
+fn mass_height_and_mirror_symmetry_match_the_paper_robot() {
+    for kind in [ModelKind::Closed, ModelKind::Open] {
+        let (m, idx) = load(kind);
+        let mass = m.total_mass();
+        assert!((mass - 20.0).abs() <= 0.5, "{kind:?}: total mass {mass} kg, paper 20 kg");
+        let mut d = Data::new(m.clone()).unwrap();
+        d.reset_keyframe(idx.stand_key).unwrap();
+        d.forward().unwrap();
+        let floor = idx.floor_geom;
+        let top = (0..m.ngeom()).filter(|&g| g != floor).map(|g| geom_top(&m, &d, g)).fold(f64::MIN, f64::max);
+        assert!((top - 0.70).abs() <= 0.03, "{kind:?}: standing height {top} m, paper 0.70 m");
+        // Every l_ body has an r_ twin mirrored in the XZ plane.
+        let mut pairs = 0;
+        for b in 0..m.nbody() {
+            let name = m.name_of(ObjType::Body, b).unwrap_or("");
+            let Some(rest) = name.strip_prefix("l_") else { continue };
+            let r = m.id(ObjType::Body, &format!("r_{rest}")).unwrap();
+            pairs += 1;
+            let close =
+                |a: f64, b: f64, what: &str| assert!((a - b).abs() < 1e-9, "{name} vs r_{rest}: {what} {a} vs {b}");
+            close(m.body_mass()[b], m.body_mass()[r], "mass");
+            for k in 0..3 {
+                close(m.body_inertia()[b][k], m.body_inertia()[r][k], "inertia");
+                let s = if k == 1 { -1.0 } else { 1.0 };
+                close(m.body_pos()[b][k], s * m.body_pos()[r][k], "pos");
+                close(m.body_ipos()[b][k], s * m.body_ipos()[r][k], "inertial pos");
+            }
+            let (qa, qb) = (m.body_iquat()[b], m.body_iquat()[r]);
+            // Mirrored orientation: (w, x, y, z) → (w, −x, y, −z) (or the same rotation with the opposite sign).
+            let mirrored = [qb[0], -qb[1], qb[2], -qb[3]];
+            let same = (0..4).all(|k| (qa[k] - mirrored[k]).abs() < 1e-9)
+                || (0..4).all(|k| (qa[k] + mirrored[k]).abs() < 1e-9);
+            assert!(same, "{name}: inertial frame {qa:?} is not the mirror of {qb:?}");
+        }
+        assert!(pairs >= 5, "{kind:?}: only {pairs} mirrored body pairs");
+    }
+}
+
+#[test]
+fn both_models_stand_ten_seconds_under_pd() {
+    for kind in [ModelKind::Closed, ModelKind::Open] {
+        let (m, idx) = load(kind);
+        let mut d = Data::new(m.clone()).unwrap();
+        d.reset_keyframe(idx.stand_key).unwrap();
+        let z0 = d.qpos()[idx.base_qpos + 2];
+        let (mut worst_dz, mut worst_tilt, mut worst_torque): (f64, f64, f64) = (0.0, 0.0, 0.0);
+        while d.time() < 10.0 {
+            d.step().unwrap();
+            let q = &d.qpos()[idx.base_qpos..idx.base_qpos + 7];
+            let (roll, pitch, _) = topa_env::state::quat_of(&q[3..7]).euler_angles();
+            worst_dz = worst_dz.max((q[2] - z0).abs());
+            worst_tilt = worst_tilt.max(roll.abs()).max(pitch.abs());
+            for i in 0..N_MOTORS {
+                let share = d.actuator_force()[i].abs() / idx.torque_limit[i];
+                worst_torque = worst_torque.max(share);
+            }
+        }
+        eprintln!(
+            "{kind:?} stands 10 s: |Δz| ≤ {worst_dz:.4} m, tilt ≤ {worst_tilt:.4} rad, torque ≤ {:.0} % of peak",
+            100.0 * worst_torque
+        );
+        assert!(worst_dz < 0.02, "{kind:?}: base moved {worst_dz} m");
+        assert!(worst_tilt < 0.05, "{kind:?}: tilted {worst_tilt} rad");
+        assert!(worst_torque <= 1.0, "{kind:?}: a motor exceeded its torque limit");
+    }
+}
+
+#[test]
+fn open_and_closed_reach_the_same_joint_angles_for_mapped_targets() {
+    let (mc, ic) = load(ModelKind::Closed);
+    let (mo, io) = load(ModelKind::Open);
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    let mut worst: f64 = 0.0;
+    for _ in 0..5 {
+        // A random reachable pose: joint targets inside the joint ranges, mapped to motor targets.
+        let joint_ranges = robot::per_motor(|m| m.joint_range);
+        let nominal = robot::nominal_joints();
+        let joints: [f64; N_MOTORS] = std::array::from_fn(|i| {
+            let [lo, hi] = joint_ranges[i];
+            (nominal[i] + rng.random_range(-0.3..0.3)).clamp(lo + 0.05, hi - 0.05)
+        });
+        let motors = robot::joint_to_motor(&joints);
+        let settle = |m: &Arc<Model>, idx: &RobotIndices, ctrl: &[f64; N_MOTORS]| {
+            let mut d = Data::new(m.clone()).unwrap();
+            d.reset_keyframe(idx.stand_key).unwrap();
+            d.ctrl_mut().copy_from_slice(ctrl);
+            for _ in 0..800 {
+                pin_base(&mut d, idx, 1.0);
+                d.step().unwrap();
+            }
+            let q: [f64; N_MOTORS] = std::array::from_fn(|i| d.qpos()[idx.joint_qpos[i]]);
+            q
+        };
+        let qc = settle(&mc, &ic, &motors);
+        // The open model is given joint targets = M · (closed motor targets).
+        let qo = settle(&mo, &io, &robot::motor_to_joint(&motors));
+        for i in 0..N_MOTORS {
+            worst = worst.max((qc[i] - qo[i]).abs());
+        }
+    }
+    eprintln!("open vs closed at rest: worst joint difference {worst:.2e} rad");
+    assert!(worst < 1e-2, "the two models disagree by {worst} rad");
+}
+
+#[test]
+fn a_renamed_joint_is_a_clear_start_up_error() {
+    let dir = assets::mjcf_dir();
+    let xml = std::fs::read_to_string(dir.join("topa_closed.xml")).unwrap();
+    assert!(xml.contains("name=\"l_ankle_pitch\""));
+    let renamed = xml.replace("name=\"l_ankle_pitch\"", "name=\"l_ankle\"");
+    let m = Model::from_xml_string(&renamed, &dir).unwrap();
+    let err = RobotIndices::resolve(&m, ModelKind::Closed).unwrap_err().to_string();
+    assert!(err.contains("l_ankle_pitch") && err.contains("joint"), "{err}");
+    // The open model checked as closed: the missing linkage joint is named, with the likely fix.
+    let open = assets::load_model(ModelKind::Open).unwrap();
+    let err = RobotIndices::resolve(&open, ModelKind::Closed).unwrap_err().to_string();
+    assert!(err.contains("l_ankle_motor") && err.contains("--model open"), "{err}");
+}
