@@ -162,6 +162,8 @@ pub struct AdversaryConfig {
     pub max_foot_force: f64,
     /// Cost on perturbation magnitude in the adversary's reward (0 = pure −task reward).
     pub magnitude_cost: f64,
+    /// Bound of each perturbation value for tasks other than TopA (e.g. the cart-pole's push, N).
+    pub generic_bound: f64,
     /// Adversary PPO learning rate (its own optimizer).
     pub learning_rate: f64,
 }
@@ -178,6 +180,7 @@ impl Default for AdversaryConfig {
             max_gravity_tilt: 0.1,
             max_foot_force: 20.0,
             magnitude_cost: 0.0,
+            generic_bound: 1.0,
             learning_rate: 3e-5,
         }
     }
@@ -198,8 +201,8 @@ impl TrainConfig {
     pub fn load(path: &Path) -> Result<TrainConfig, ConfigError> {
         let p = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io { path: p.clone(), source })?;
-        let cfg: TrainConfig =
-            toml::from_str(&text).map_err(|e| ConfigError::Parse { path: p.clone(), message: one_line(&e.to_string()) })?;
+        let cfg: TrainConfig = toml::from_str(&text)
+            .map_err(|e| ConfigError::Parse { path: p.clone(), message: one_line(&e.to_string()) })?;
         cfg.validate().map_err(|message| ConfigError::Invalid { path: p, message })?;
         Ok(cfg)
     }

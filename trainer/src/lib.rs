@@ -1,4 +1,20 @@
-//! The learning core: networks (fast CPU kernels inside Candle's autograd), PPO, symmetry and decay losses,
-//! the cyclic adversary, checkpoints.
+//! The learning core: networks (fast CPU kernels inside Candle's autograd), PPO with the paper's symmetry and
+//! last-layer decay losses, the cyclic adversary, checkpoints and policy files.
 
+pub mod actor_critic;
+pub mod adversary;
+pub mod checkpoint;
+pub mod config;
+pub mod metrics;
 pub mod nn;
+pub mod normalizer;
+pub mod optim;
+pub mod policy_file;
+pub mod ppo;
+pub mod schedule;
+pub mod storage;
+pub mod tensorfile;
+pub mod train;
+
+pub use config::TrainConfig;
+pub use train::{IterationLog, Trainer};

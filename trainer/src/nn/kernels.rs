@@ -21,30 +21,32 @@ pub(crate) fn has_avx2_fma() -> bool {
     }
 }
 
-/// Runs `$body` (an expression using the surrounding variables) through a `#[target_feature(avx2,fma)]`
-/// trampoline when the CPU supports it, else through the portable copy.
+/// Defines `fn $name` whose body is compiled twice, portable and with AVX2+FMA, the latter chosen at run time.
 macro_rules! multiversion {
-    (fn $name:ident($($arg:ident : $ty:ty),* $(,)?) $(-> $ret:ty)? $body:block) => {
-        #[inline(always)]
-        fn body($($arg: $ty),*) $(-> $ret)? $body
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx2,fma")]
-        unsafe fn avx2($($arg: $ty),*) $(-> $ret)? { body($($arg),*) }
-        #[cfg(target_arch = "x86_64")]
-        {
-            if crate::nn::kernels::has_avx2_fma() {
-                // SAFETY: the CPU supports the features the function was compiled for.
+    ($(#[$m:meta])* $vis:vis fn $name:ident($($arg:ident : $ty:ty),* $(,)?) $body:block) => {
+        $(#[$m])*
+        $vis fn $name($($arg: $ty),*) {
+            #[inline(always)]
+            fn body($($arg: $ty),*) $body
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx2,fma")]
+            unsafe fn avx2($($arg: $ty),*) {
+                body($($arg),*)
+            }
+            #[cfg(target_arch = "x86_64")]
+            if has_avx2_fma() {
+                // SAFETY: the CPU supports the features `avx2` was compiled for.
                 return unsafe { avx2($($arg),*) };
             }
+            body($($arg),*)
         }
-        body($($arg),*)
     };
 }
-pub(crate) use multiversion;
 
 const LOG2E: f32 = std::f32::consts::LOG2_E;
 const LN2_HI: f32 = 0.693_145_751_953_125;
 const LN2_LO: f32 = 1.428_606_765_330_187_045e-6;
+const ROUND_MAGIC: f32 = 12_582_912.0; // 1.5·2²³
 
 /// `expm1(z)` for `z <= 0` (callers clamp), accurate to a few ulp, written so that LLVM vectorises it: no
 /// branches, no libm calls. Range reduction `z = n·ln2 + r`, `|r| <= ln2/2`; `expm1(r)` by its Taylor series to
@@ -53,18 +55,21 @@ const LN2_LO: f32 = 1.428_606_765_330_187_045e-6;
 #[inline(always)]
 pub(crate) fn expm1_nonpos(z: f32) -> f32 {
     let z = z.max(-87.0);
-    let n = (z * LOG2E).round_ties_even();
+    // n = round-to-nearest-even(z·log2 e) by the 1.5·2²³ trick: the sum's low mantissa bits hold n, so 2ⁿ is
+    // built from bits without a float→int conversion (Rust's saturating `as` would not vectorise).
+    let t = z.mul_add(LOG2E, ROUND_MAGIC);
+    let n = t - ROUND_MAGIC;
     let r = (-n).mul_add(LN2_HI, z);
     let r = (-n).mul_add(LN2_LO, r);
-    let mut p = 1.0 / 5040.0;
+    let mut p: f32 = 1.0 / 5040.0;
     p = p.mul_add(r, 1.0 / 720.0);
     p = p.mul_add(r, 1.0 / 120.0);
     p = p.mul_add(r, 1.0 / 24.0);
     p = p.mul_add(r, 1.0 / 6.0);
     p = p.mul_add(r, 0.5);
     let em1 = p.mul_add(r * r, r);
-    // 2ⁿ for n in [-126, 0]: a normal number built from its exponent bits.
-    let two_n = f32::from_bits((((n as i32) + 127) as u32) << 23);
+    // 2ⁿ for n in [-126, 0]: (n + 127) << 23; the magic's own bits shift out past bit 31.
+    let two_n = f32::from_bits(t.to_bits().wrapping_add(127) << 23);
     two_n.mul_add(em1, two_n - 1.0)
 }
 
@@ -79,140 +84,116 @@ pub(crate) fn elu(z: f32) -> f32 {
     }
 }
 
-/// `y[r, :] = act(y[r, :] + bias)` for every row of the row-major block `y` (`n` columns).
-pub(crate) fn bias_act_rows(y: &mut [f32], n: usize, bias: &[f32], act: Activation) {
-    multiversion! {
-        fn bias_act_rows_impl(y: &mut [f32], n: usize, bias: &[f32], act: Activation) {
-            let bias = &bias[..n];
-            match act {
-                Activation::Elu => {
-                    for row in y.chunks_exact_mut(n) {
-                        for (v, &b) in row.iter_mut().zip(bias) {
-                            *v = elu(*v + b);
-                        }
+multiversion! {
+    /// `y[r, :] = act(y[r, :] + bias)` for every row of the row-major block `y` (`n` columns).
+    pub(crate) fn bias_act_rows(y: &mut [f32], n: usize, bias: &[f32], act: Activation) {
+        let bias = &bias[..n];
+        match act {
+            Activation::Elu => {
+                for row in y.chunks_exact_mut(n) {
+                    for (v, &b) in row.iter_mut().zip(bias) {
+                        *v = elu(*v + b);
                     }
                 }
-                Activation::Identity => {
-                    for row in y.chunks_exact_mut(n) {
-                        for (v, &b) in row.iter_mut().zip(bias) {
-                            *v += b;
-                        }
+            }
+            Activation::Identity => {
+                for row in y.chunks_exact_mut(n) {
+                    for (v, &b) in row.iter_mut().zip(bias) {
+                        *v += b;
                     }
                 }
             }
         }
     }
-    bias_act_rows_impl(y, n, bias, act)
 }
 
-/// Gradient with respect to the pre-activation, `dz = dy ⊙ act'(z)`, with ELU'(z) taken from the stored output
-/// `y = act(z)`: 1 where `y > 0`, `y + 1` elsewhere. `dy` row `r` starts at `dy[r * dy_rs]` with column stride
-/// `dy_cs` (candle may hand us a broadcast or transposed gradient); `y` and `dz` are row-major with `n` columns.
-/// Adds the column sums of `dz` to `colsum` (row by row, in row order).
-pub(crate) fn act_backward_rows(
-    dy: &[f32],
-    dy_rs: usize,
-    dy_cs: usize,
-    y: &[f32],
-    dz: &mut [f32],
-    n: usize,
-    act: Activation,
-    colsum: &mut [f32],
-) {
-    multiversion! {
-        fn act_backward_impl(
-            dy: &[f32], dy_rs: usize, dy_cs: usize, y: &[f32], dz: &mut [f32], n: usize, act: Activation,
-            colsum: &mut [f32],
-        ) {
-            let colsum = &mut colsum[..n];
-            for (r, (dz_row, y_row)) in dz.chunks_exact_mut(n).zip(y.chunks_exact(n)).enumerate() {
-                if dy_cs == 1 {
-                    let dy_row = &dy[r * dy_rs..r * dy_rs + n];
-                    match act {
-                        Activation::Elu => {
-                            for (((d, &g), &v), s) in dz_row.iter_mut().zip(dy_row).zip(y_row).zip(colsum.iter_mut()) {
-                                let e = if v > 0.0 { g } else { g * (v + 1.0) };
-                                *d = e;
-                                *s += e;
-                            }
-                        }
-                        Activation::Identity => {
-                            for ((d, &g), s) in dz_row.iter_mut().zip(dy_row).zip(colsum.iter_mut()) {
-                                *d = g;
-                                *s += g;
-                            }
-                        }
-                    }
-                } else {
-                    for j in 0..n {
-                        let g = dy[r * dy_rs + j * dy_cs];
-                        let v = y_row[j];
-                        let e = match act {
-                            Activation::Elu => if v > 0.0 { g } else { g * (v + 1.0) },
-                            Activation::Identity => g,
-                        };
-                        dz_row[j] = e;
-                        colsum[j] += e;
-                    }
-                }
-            }
-        }
-    }
-    act_backward_impl(dy, dy_rs, dy_cs, y, dz, n, act, colsum)
-}
-
-/// In place: `g = g ⊙ act'(z)` with act' from the stored output `y` (see [`act_backward_rows`]), adding the
-/// column sums of the result to `colsum`. Used as the epilogue of the `dX` product of the next layer.
-pub(crate) fn act_backward_inplace_rows(g: &mut [f32], y: &[f32], n: usize, act: Activation, colsum: &mut [f32]) {
-    multiversion! {
-        fn act_backward_inplace_impl(g: &mut [f32], y: &[f32], n: usize, act: Activation, colsum: &mut [f32]) {
-            let colsum = &mut colsum[..n];
-            for (g_row, y_row) in g.chunks_exact_mut(n).zip(y.chunks_exact(n)) {
+multiversion! {
+    /// Gradient with respect to the pre-activation, `dz = dy ⊙ act'(z)`, with ELU'(z) taken from the stored output
+    /// `y = act(z)`: 1 where `y > 0`, `y + 1` elsewhere. `dy` row `r` starts at `dy[r * dy_rs]` with column stride
+    /// `dy_cs` (candle may hand us a broadcast or transposed gradient); `y` and `dz` are row-major with `n` columns.
+    /// Adds the column sums of `dz` to `colsum` (row by row, in row order).
+    pub(crate) fn act_backward_rows(
+        dy: &[f32], dy_rs: usize, dy_cs: usize, y: &[f32], dz: &mut [f32], n: usize, act: Activation,
+        colsum: &mut [f32],
+    ) {
+        let colsum = &mut colsum[..n];
+        for (r, (dz_row, y_row)) in dz.chunks_exact_mut(n).zip(y.chunks_exact(n)).enumerate() {
+            if dy_cs == 1 {
+                let dy_row = &dy[r * dy_rs..r * dy_rs + n];
                 match act {
                     Activation::Elu => {
-                        for ((d, &v), s) in g_row.iter_mut().zip(y_row).zip(colsum.iter_mut()) {
-                            let e = if v > 0.0 { *d } else { *d * (v + 1.0) };
+                        for (((d, &g), &v), s) in dz_row.iter_mut().zip(dy_row).zip(y_row).zip(colsum.iter_mut()) {
+                            let e = if v > 0.0 { g } else { g * (v + 1.0) };
                             *d = e;
                             *s += e;
                         }
                     }
                     Activation::Identity => {
-                        for (d, s) in g_row.iter().zip(colsum.iter_mut()) {
-                            *s += *d;
+                        for ((d, &g), s) in dz_row.iter_mut().zip(dy_row).zip(colsum.iter_mut()) {
+                            *d = g;
+                            *s += g;
                         }
+                    }
+                }
+            } else {
+                for j in 0..n {
+                    let g = dy[r * dy_rs + j * dy_cs];
+                    let v = y_row[j];
+                    let e = match act {
+                        Activation::Elu => if v > 0.0 { g } else { g * (v + 1.0) },
+                        Activation::Identity => g,
+                    };
+                    dz_row[j] = e;
+                    colsum[j] += e;
+                }
+            }
+        }
+    }
+}
+
+multiversion! {
+    /// In place: `g = g ⊙ act'(z)` with act' from the stored output `y` (see [`act_backward_rows`]), adding the
+    /// column sums of the result to `colsum`. Used as the epilogue of the `dX` product of the next layer.
+    pub(crate) fn act_backward_inplace_rows(g: &mut [f32], y: &[f32], n: usize, act: Activation, colsum: &mut [f32]) {
+        let colsum = &mut colsum[..n];
+        for (g_row, y_row) in g.chunks_exact_mut(n).zip(y.chunks_exact(n)) {
+            match act {
+                Activation::Elu => {
+                    for ((d, &v), s) in g_row.iter_mut().zip(y_row).zip(colsum.iter_mut()) {
+                        let e = if v > 0.0 { *d } else { *d * (v + 1.0) };
+                        *d = e;
+                        *s += e;
+                    }
+                }
+                Activation::Identity => {
+                    for (d, s) in g_row.iter().zip(colsum.iter_mut()) {
+                        *s += *d;
                     }
                 }
             }
         }
     }
-    act_backward_inplace_impl(g, y, n, act, colsum)
 }
 
-/// Column sums of a row-major block (`n` columns), added row by row in row order to `colsum`.
-pub(crate) fn add_colsum_rows(x: &[f32], n: usize, colsum: &mut [f32]) {
-    multiversion! {
-        fn add_colsum_impl(x: &[f32], n: usize, colsum: &mut [f32]) {
-            let colsum = &mut colsum[..n];
-            for row in x.chunks_exact(n) {
-                for (s, &v) in colsum.iter_mut().zip(row) {
-                    *s += v;
-                }
+multiversion! {
+    /// Column sums of a row-major block (`n` columns), added row by row in row order to `colsum`.
+    pub(crate) fn add_colsum_rows(x: &[f32], n: usize, colsum: &mut [f32]) {
+        let colsum = &mut colsum[..n];
+        for row in x.chunks_exact(n) {
+            for (s, &v) in colsum.iter_mut().zip(row) {
+                *s += v;
             }
         }
     }
-    add_colsum_impl(x, n, colsum)
 }
 
-/// `acc += x`, element-wise (fixed-order reduction of per-block partial sums).
-pub(crate) fn add_assign(acc: &mut [f32], x: &[f32]) {
-    multiversion! {
-        fn add_assign_impl(acc: &mut [f32], x: &[f32]) {
-            for (a, &v) in acc.iter_mut().zip(x) {
-                *a += v;
-            }
+multiversion! {
+    /// `acc += x`, element-wise (fixed-order reduction of per-block partial sums).
+    pub(crate) fn add_assign(acc: &mut [f32], x: &[f32]) {
+        for (a, &v) in acc.iter_mut().zip(x) {
+            *a += v;
         }
     }
-    add_assign_impl(acc, x)
 }
 
 #[cfg(test)]

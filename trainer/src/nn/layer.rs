@@ -5,8 +5,8 @@
 //! * products with the batch as the row dimension (forward `X·Wᵀ`, backward `dZ·W`) are cut into blocks of
 //!   [`ROW_BLOCK`] rows; each block is one single-threaded `gemm` call followed by its element-wise epilogue
 //!   (bias + ELU, or ELU' + bias-gradient partial sums) while the block is still in cache;
-//! * the weight gradient `dZᵀ·X` (a reduction over the batch) is cut along its output columns into blocks of
-//!   [`COL_BLOCK`] columns, each computed by one thread over the whole batch;
+//! * the weight gradient `dZᵀ·X` (a reduction over the batch) is cut into fixed chunks of [`WG_CHUNK`] batch
+//!   rows, one single-threaded product each, and the chunk results are added in chunk order;
 //! * bias gradients are summed per row block (rows in order), then the block partials are added in block order.
 //!
 //! Blocks are handed to the rayon global pool; whichever thread runs a block, it does the same arithmetic in the
@@ -18,8 +18,8 @@ use rayon::prelude::*;
 
 /// Rows per block in the batch-parallel products. Also the granularity of the bias-gradient partial sums.
 pub(crate) const ROW_BLOCK: usize = 768;
-/// Output columns per block of the weight-gradient product.
-pub(crate) const COL_BLOCK: usize = 128;
+/// Rows (batch samples) per chunk of the weight-gradient reduction.
+pub(crate) const WG_CHUNK: usize = 1536;
 
 /// A read-only strided matrix view: element `(i, j)` is at `ptr + i·rs + j·cs`.
 #[derive(Clone, Copy, Debug)]
@@ -144,7 +144,7 @@ pub(crate) fn output_grad(dy: MatRef, y: &[f32], m: usize, n: usize, act: Activa
     assert!(dy.rs >= 0 && dy.cs >= 0, "negative strides");
     let (rs, cs) = (dy.rs as usize, dy.cs as usize);
     for_each_block(n_blocks, |blk| {
-        let (dzp, pp) = (dzp, pp);
+        let (dzp, pp, dy) = (dzp, pp, dy);
         let r0 = blk * ROW_BLOCK;
         let rows = ROW_BLOCK.min(m - r0);
         // SAFETY: disjoint row ranges of `dz` and disjoint partial slots; `dz` has capacity m·n; the `dy` view
@@ -164,22 +164,46 @@ pub(crate) fn output_grad(dy: MatRef, y: &[f32], m: usize, n: usize, act: Activa
     (dz, db)
 }
 
-/// `dw[n×k] = dzᵀ · x`: dz row-major `[m, n]`, x a strided `[m, k]` view. The batch reduction (over `m`) is never
-/// split: blocks of [`COL_BLOCK`] output columns each take the whole batch.
+/// `dw[n×k] = dzᵀ · x`: dz row-major `[m, n]`, x a strided `[m, k]` view. The batch is cut into chunks of
+/// [`WG_CHUNK`] rows; each chunk's product `dz_cᵀ · x_c` is one single-threaded gemm (chunks run in parallel), and
+/// the chunk results are then added in chunk order. The chunking depends only on `m`, never on the thread count.
 pub(crate) fn weight_grad(dz: &[f32], x: MatRef, m: usize, n: usize, k: usize) -> Vec<f32> {
-    let mut dw = Vec::<f32>::with_capacity(n * k);
+    let n_chunks = m.div_ceil(WG_CHUNK).max(1);
+    let size = n * k;
+    // Chunk 0 writes straight into the result, chunks 1.. into partial buffers.
+    let mut dw = Vec::<f32>::with_capacity(size);
+    let mut partials = Vec::<f32>::with_capacity(size * (n_chunks - 1));
     let dwp = MutPtr(dw.as_mut_ptr());
+    let pp = MutPtr(partials.as_mut_ptr());
     let dzt = MatRef::row_major(dz, n).t();
-    let n_blocks = k.div_ceil(COL_BLOCK);
-    for_each_block(n_blocks, |blk| {
-        let dwp = dwp;
-        let c0 = blk * COL_BLOCK;
-        let cols = COL_BLOCK.min(k - c0);
-        // SAFETY: disjoint column ranges of dw (row stride k).
-        unsafe { gemm_st(n, cols, m, dwp.0.add(c0), k, dzt, x.cols_from(c0)) };
+    for_each_block(n_chunks, |c| {
+        let (dwp, pp) = (dwp, pp);
+        let r0 = c * WG_CHUNK;
+        let rows = WG_CHUNK.min(m - r0);
+        let dst = if c == 0 { dwp.0 } else { pp.0.wrapping_add((c - 1) * size) };
+        // SAFETY: each chunk writes its own n×k buffer; the views cover rows r0..r0+rows.
+        unsafe { gemm_st(n, k, rows, dst, k, dzt.cols_from(r0), x.rows_from(r0)) };
     });
-    // SAFETY: every element written (column blocks cover 0..k for all n rows).
-    unsafe { dw.set_len(n * k) };
+    // SAFETY: every buffer was fully written by its chunk.
+    unsafe {
+        dw.set_len(size);
+        partials.set_len(size * (n_chunks - 1));
+    }
+    if n_chunks > 1 {
+        // Fixed-order sum, parallel over element ranges (element-wise, so thread-count invariant).
+        let span = 16 * 1024;
+        let dwp = MutPtr(dw.as_mut_ptr());
+        for_each_block(size.div_ceil(span), |b| {
+            let dwp = dwp;
+            let lo = b * span;
+            let hi = size.min(lo + span);
+            // SAFETY: disjoint element ranges of dw.
+            let acc = unsafe { std::slice::from_raw_parts_mut(dwp.0.add(lo), hi - lo) };
+            for p in partials.chunks_exact(size) {
+                kernels::add_assign(acc, &p[lo..hi]);
+            }
+        });
+    }
     dw
 }
 

@@ -62,9 +62,7 @@ impl Linear {
     /// PyTorch's default `nn.Linear` init: weight and bias ~ U(−1/√in, 1/√in), weight drawn first, row by row.
     pub fn new(in_dim: usize, out_dim: usize, rng: &mut impl rand::Rng) -> Result<Linear> {
         let bound = 1.0 / (in_dim as f64).sqrt();
-        let mut draw = |n: usize| -> Vec<f32> {
-            (0..n).map(|_| rng.random_range(-bound..bound) as f32).collect()
-        };
+        let mut draw = |n: usize| -> Vec<f32> { (0..n).map(|_| rng.random_range(-bound..bound) as f32).collect() };
         let w = draw(out_dim * in_dim);
         let b = draw(out_dim);
         Ok(Linear {
@@ -248,6 +246,8 @@ pub fn init_threads(n: usize) -> Result<()> {
     match rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
         Ok(()) => Ok(()),
         Err(_) if rayon::current_num_threads() == n => Ok(()),
-        Err(e) => bail!("nn::init_threads({n}): rayon global pool already has {} threads: {e}", rayon::current_num_threads()),
+        Err(e) => {
+            bail!("nn::init_threads({n}): rayon global pool already has {} threads: {e}", rayon::current_num_threads())
+        }
     }
 }

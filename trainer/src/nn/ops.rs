@@ -25,7 +25,7 @@ use std::sync::{Arc, Mutex};
 pub(crate) fn mat_of(s: &CpuStorage, l: &Layout, what: &str) -> Result<(MatRef, usize, usize)> {
     let data = match s {
         CpuStorage::F32(v) => v.as_slice(),
-        _ => bail!("nn: {what} must be f32, got {:?}", s.dtype()),
+        _ => bail!("nn: {what} must be f32"),
     };
     let dims = l.dims();
     if dims.len() != 2 {
@@ -47,7 +47,7 @@ pub(crate) fn mat_of(s: &CpuStorage, l: &Layout, what: &str) -> Result<(MatRef, 
 pub(crate) fn slice_of<'a>(s: &'a CpuStorage, l: &Layout, what: &str) -> Result<&'a [f32]> {
     let data = match s {
         CpuStorage::F32(v) => v.as_slice(),
-        _ => bail!("nn: {what} must be f32, got {:?}", s.dtype()),
+        _ => bail!("nn: {what} must be f32"),
     };
     match l.contiguous_offsets() {
         Some((a, b)) => Ok(&data[a..b]),

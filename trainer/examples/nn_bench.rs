@@ -1,0 +1,179 @@
+//! Micro-benchmark of the networks on the paper's PPO update shape (compare examples/torch_reference.py).
+//!
+//! Per minibatch of 6144 rows: actor forward, a second actor forward on another input (the symmetry term), critic
+//! forward, a scalar loss touching all three outputs (mean of squares), backward, plain SGD step on every var.
+//! 24 576 samples × 5 epochs = 20 minibatches. samples/s = 24 576 / seconds for the whole 5-epoch update (as in
+//! shared/notes/candle-cpu-profile.md); GFLOP/s counts 16.8 MFLOP per sample for the whole update.
+//!
+//! Variants, timed interleaved (round-robin) so that they see the same machine state:
+//! * `plain`: straightforward candle (matmul + broadcast_add + elu, candle's backward);
+//! * `layerwise`: one fused `nn::linear` op per layer;
+//! * `ours`: `nn::Mlp::forward` (the fused layer chain).
+//!
+//! ```text
+//! cargo run --release -p trainer --example nn_bench -- --threads 2 [--repeats 5] [--variants ours,plain]
+//! ```
+
+use anyhow::Result;
+use candle_core::{Device, Tensor, Var};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::time::Instant;
+use trainer::nn::{self, Mlp, MlpScratch};
+
+const OBS: usize = 42;
+const ACT: usize = 10;
+const SAMPLES: usize = 24_576;
+const MINIBATCH: usize = 6_144;
+const EPOCHS: usize = 5;
+const FLOP_PER_SAMPLE: f64 = 16.8e6;
+
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Variant {
+    Plain,
+    Layerwise,
+    Ours,
+}
+
+impl Variant {
+    fn name(self) -> &'static str {
+        match self {
+            Variant::Plain => "plain candle",
+            Variant::Layerwise => "nn::linear per layer",
+            Variant::Ours => "nn::Mlp::forward",
+        }
+    }
+    fn forward(self, m: &Mlp, x: &Tensor) -> candle_core::Result<Tensor> {
+        match self {
+            Variant::Plain => m.forward_reference(x),
+            Variant::Layerwise => m.forward_layerwise(x),
+            Variant::Ours => m.forward(x),
+        }
+    }
+}
+
+fn random(rows: usize, cols: usize, rng: &mut ChaCha8Rng) -> Result<Tensor> {
+    let v: Vec<f32> = (0..rows * cols).map(|_| rng.random_range(-2.0f32..2.0)).collect();
+    Ok(Tensor::from_vec(v, (rows, cols), &Device::Cpu)?)
+}
+
+struct Setup {
+    actor: Mlp,
+    critic: Mlp,
+    vars: Vec<Var>,
+    obs: Tensor,
+    mirrored: Tensor,
+}
+
+fn setup(seed: u64) -> Result<Setup> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let actor = Mlp::new(&[OBS, 512, 256, 128, ACT], &mut rng)?;
+    let critic = Mlp::new(&[OBS, 512, 256, 128, 1], &mut rng)?;
+    let mut vars = actor.vars();
+    vars.extend(critic.vars());
+    let obs = random(SAMPLES, OBS, &mut rng)?;
+    let mirrored = random(SAMPLES, OBS, &mut rng)?;
+    Ok(Setup { actor, critic, vars, obs, mirrored })
+}
+
+/// One whole update (5 epochs × 4 minibatches); returns (seconds, last loss).
+fn update(s: &Setup, v: Variant, lr: f64) -> Result<(f64, f32)> {
+    let t = Instant::now();
+    let mut last = 0.0;
+    for _ in 0..EPOCHS {
+        for i in 0..SAMPLES / MINIBATCH {
+            let x = s.obs.narrow(0, i * MINIBATCH, MINIBATCH)?;
+            let xm = s.mirrored.narrow(0, i * MINIBATCH, MINIBATCH)?;
+            let mu = v.forward(&s.actor, &x)?;
+            let mu_m = v.forward(&s.actor, &xm)?;
+            let value = v.forward(&s.critic, &x)?;
+            let loss = ((mu.sqr()?.mean_all()? + mu_m.sqr()?.mean_all()?)? + value.sqr()?.mean_all()?)?;
+            let grads = loss.backward()?;
+            for var in &s.vars {
+                let g = grads.get(var).expect("every var has a gradient");
+                var.set(&(var.as_tensor() - (g * lr)?)?)?;
+            }
+            last = loss.to_scalar::<f32>()?;
+        }
+    }
+    Ok((t.elapsed().as_secs_f64(), last))
+}
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().collect();
+    let arg = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned();
+    let threads: usize = arg("--threads").map(|s| s.parse()).transpose()?.unwrap_or(2);
+    let repeats: usize = arg("--repeats").map(|s| s.parse()).transpose()?.unwrap_or(3);
+    let variants: Vec<Variant> = arg("--variants")
+        .unwrap_or_else(|| "ours,plain".into())
+        .split(',')
+        .map(|v| match v {
+            "plain" => Variant::Plain,
+            "layerwise" => Variant::Layerwise,
+            "ours" => Variant::Ours,
+            other => panic!("unknown variant {other}"),
+        })
+        .collect();
+    nn::init_threads(threads)?;
+    println!("threads {threads} (rayon {}), repeats {repeats}", rayon::current_num_threads());
+
+    // Same initial weights for every variant: each gets its own copy of the seeded setup.
+    let setups: Vec<Setup> = variants.iter().map(|_| setup(1)).collect::<Result<_>>()?;
+    let mut times: Vec<Vec<f64>> = vec![Vec::new(); variants.len()];
+    for (s, &v) in setups.iter().zip(&variants) {
+        let (t, loss) = update(s, v, 1e-3)?; // warm-up
+        println!("warm-up {:<22} {t:.3} s  loss {loss:.6}", v.name());
+    }
+    for _ in 0..repeats {
+        for (i, (s, &v)) in setups.iter().zip(&variants).enumerate() {
+            let (t, _) = update(s, v, 1e-3)?;
+            times[i].push(t);
+            println!(
+                "  {:<22} {t:.3} s  {:7.0} samples/s  {:6.1} GFLOP/s",
+                v.name(),
+                SAMPLES as f64 / t,
+                SAMPLES as f64 * FLOP_PER_SAMPLE / t / 1e9
+            );
+        }
+    }
+    for (i, &v) in variants.iter().enumerate() {
+        let mut t = times[i].clone();
+        t.sort_by(f64::total_cmp);
+        let (best, med) = (t[0], t[t.len() / 2]);
+        println!(
+            "RESULT threads={threads} {:<22} best {:7.0} samples/s {:6.1} GFLOP/s | median {:7.0} samples/s",
+            v.name(),
+            SAMPLES as f64 / best,
+            SAMPLES as f64 * FLOP_PER_SAMPLE / best / 1e9,
+            SAMPLES as f64 / med
+        );
+    }
+
+    // Rollout inference: batched actor forward, 4096 rows.
+    let s = &setups[0];
+    let rows = 4096;
+    let x = s.obs.narrow(0, 0, rows)?;
+    let xv = x.flatten_all()?.to_vec1::<f32>()?;
+    let mut out = Vec::new();
+    let mut scratch = MlpScratch::default();
+    let n = 200;
+    for _ in 0..10 {
+        s.actor.forward_inference(&xv, rows, &mut out, &mut scratch);
+    }
+    let t = Instant::now();
+    for _ in 0..n {
+        s.actor.forward_inference(&xv, rows, &mut out, &mut scratch);
+    }
+    let ours = t.elapsed().as_secs_f64() / n as f64;
+    let t = Instant::now();
+    for _ in 0..n / 4 {
+        std::hint::black_box(s.actor.forward_reference(&x)?);
+    }
+    let plain = t.elapsed().as_secs_f64() / (n / 4) as f64;
+    println!(
+        "RESULT threads={threads} inference {rows} rows: forward_inference {:.3} ms/call, plain candle forward {:.3} ms/call",
+        ours * 1e3,
+        plain * 1e3
+    );
+    Ok(())
+}

@@ -1,0 +1,230 @@
+//! Checkpoints: everything needed to continue a run bit for bit — both agents' weights, Adam moments, learning
+//! rates and normalisers, the RNG, the iteration (hence the schedule position), and every environment's state —
+//! as one safetensors file plus a JSON sidecar, written atomically. `latest.json` points at the newest complete
+//! pair and is replaced last, so a crash at any moment leaves a loadable checkpoint.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use candle_core::{Device, Tensor};
+use serde::{Deserialize, Serialize};
+use topa_env::EnvSnapshot;
+
+use crate::config::TrainConfig;
+use crate::optim::AdamState;
+use crate::ppo::Agent;
+use crate::tensorfile::{checksum, write_atomic, Bundle, Loaded};
+use crate::train::Trainer;
+
+pub const FORMAT: &str = "topa-checkpoint";
+pub const VERSION: u32 = 1;
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct AgentMeta {
+    pub learning_rate: f64,
+    pub adam_step: u64,
+    pub normalizer_count: f64,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sidecar {
+    pub format: String,
+    pub version: u32,
+    pub iteration: usize,
+    pub samples: u64,
+    pub wall_time_s: f64,
+    pub with_adversary: bool,
+    pub rng: Vec<u64>,
+    pub policy: AgentMeta,
+    pub adversary: Option<AgentMeta>,
+    pub num_envs: usize,
+    pub obs_dim: usize,
+    pub action_dim: usize,
+    pub env_f64_width: usize,
+    pub env_u64_width: usize,
+    /// The weights file (same directory) and its CRC-32.
+    pub weights: String,
+    pub weights_crc32: u32,
+    pub config: TrainConfig,
+    /// The command line that started the run (for the record).
+    pub command: String,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct Latest {
+    sidecar: String,
+    iteration: usize,
+}
+
+fn save_agent(b: &mut Bundle, prefix: &str, a: &Agent) -> Result<AgentMeta> {
+    let named = a.ac.named_vars();
+    for (i, (name, var)) in named.iter().enumerate() {
+        let dims = var.dims().to_vec();
+        b.add_f32(&format!("{prefix}.{name}"), &dims, &var.as_tensor().flatten_all()?.to_vec1::<f32>()?);
+        b.add_f32(&format!("{prefix}.adam_m.{name}"), &dims, &a.opt.state.m[i]);
+        b.add_f32(&format!("{prefix}.adam_v.{name}"), &dims, &a.opt.state.v[i]);
+    }
+    let d = a.normalizer.dim();
+    b.add_f64(&format!("{prefix}.normalizer.mean"), &[d], &a.normalizer.mean);
+    b.add_f64(&format!("{prefix}.normalizer.m2"), &[d], &a.normalizer.m2);
+    Ok(AgentMeta { learning_rate: a.lr, adam_step: a.opt.state.step, normalizer_count: a.normalizer.count })
+}
+
+fn load_agent(l: &Loaded, prefix: &str, a: &mut Agent, meta: &AgentMeta) -> Result<()> {
+    let named = a.ac.named_vars();
+    let (mut m, mut v) = (Vec::new(), Vec::new());
+    for (name, var) in &named {
+        let dims = var.dims().to_vec();
+        let w = l.f32(&format!("{prefix}.{name}"), &dims)?;
+        var.set(&Tensor::from_vec(w, dims.as_slice(), &Device::Cpu)?)?;
+        m.push(l.f32(&format!("{prefix}.adam_m.{name}"), &dims)?);
+        v.push(l.f32(&format!("{prefix}.adam_v.{name}"), &dims)?);
+    }
+    a.opt.set_state(AdamState { step: meta.adam_step, m, v }).map_err(anyhow::Error::msg)?;
+    let d = a.normalizer.dim();
+    let mean = l.f64(&format!("{prefix}.normalizer.mean"), &[d])?;
+    let m2 = l.f64(&format!("{prefix}.normalizer.m2"), &[d])?;
+    a.normalizer.set_stats(mean, m2, meta.normalizer_count).map_err(anyhow::Error::msg)?;
+    a.lr = meta.learning_rate;
+    Ok(())
+}
+
+/// Saves a checkpoint of `t` into `dir` (`ckpt_<iteration>.{safetensors,json}`), updates `latest.json`, and
+/// keeps only the newest `keep` checkpoints (0 = all). Returns the sidecar's path.
+pub fn save(t: &Trainer, dir: &Path, command: &str, keep: usize) -> Result<PathBuf> {
+    let mut b = Bundle::default();
+    let policy = save_agent(&mut b, "policy", &t.policy)?;
+    let adversary = match &t.adversary {
+        Some(a) => Some(save_agent(&mut b, "adversary", &a.agent)?),
+        None => None,
+    };
+    let snap = t.env.save_state();
+    let n = t.env.num_envs();
+    b.add_f64("env.f64", &[n, snap.f64_width], &snap.f64s);
+    b.add_u64("env.u64", &[n, snap.u64_width], &snap.u64s);
+    b.add_f32("env.obs", &[n, t.env.obs_dim()], &snap.obs);
+    let bytes = b.to_bytes(None)?;
+    let stem = format!("ckpt_{:07}", t.iteration);
+    let weights = format!("{stem}.safetensors");
+    write_atomic(&dir.join(&weights), &bytes)?;
+    let mut rng = Vec::new();
+    topa_env::task::save_rng(&t.rng, &mut rng);
+    let side = Sidecar {
+        format: FORMAT.into(),
+        version: VERSION,
+        iteration: t.iteration,
+        samples: t.samples,
+        wall_time_s: t.wall_time_s,
+        with_adversary: t.adversary.is_some(),
+        rng,
+        policy,
+        adversary,
+        num_envs: n,
+        obs_dim: t.env.obs_dim(),
+        action_dim: t.env.action_dim(),
+        env_f64_width: snap.f64_width,
+        env_u64_width: snap.u64_width,
+        weights_crc32: checksum(&bytes),
+        weights,
+        config: t.cfg.clone(),
+        command: command.to_string(),
+    };
+    let side_path = dir.join(format!("{stem}.json"));
+    write_atomic(&side_path, serde_json::to_string_pretty(&side)?.as_bytes())?;
+    let latest = Latest { sidecar: format!("{stem}.json"), iteration: t.iteration };
+    write_atomic(&dir.join("latest.json"), serde_json::to_string_pretty(&latest)?.as_bytes())?;
+    if keep > 0 {
+        prune(dir, keep)?;
+    }
+    Ok(side_path)
+}
+
+/// Removes all but the newest `keep` checkpoint pairs.
+fn prune(dir: &Path, keep: usize) -> Result<()> {
+    let mut stems: Vec<String> = std::fs::read_dir(dir)?
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter_map(|n| n.strip_suffix(".json").filter(|s| s.starts_with("ckpt_")).map(str::to_string))
+        .collect();
+    stems.sort();
+    let drop = stems.len().saturating_sub(keep);
+    for s in &stems[..drop] {
+        for ext in ["json", "safetensors"] {
+            let _ = std::fs::remove_file(dir.join(format!("{s}.{ext}")));
+        }
+    }
+    Ok(())
+}
+
+/// The sidecar path `latest.json` in `dir` points at.
+pub fn latest(dir: &Path) -> Result<PathBuf> {
+    let p = dir.join("latest.json");
+    let text = std::fs::read_to_string(&p).with_context(|| {
+        format!("no checkpoint in {}: {} is missing (was the run started with --out here?)", dir.display(), p.display())
+    })?;
+    let l: Latest = serde_json::from_str(&text).with_context(|| format!("{} is corrupt", p.display()))?;
+    Ok(dir.join(l.sidecar))
+}
+
+/// Reads and validates a sidecar (format, version, weights checksum).
+pub fn read_sidecar(path: &Path) -> Result<(Sidecar, Loaded)> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read checkpoint {}", path.display()))?;
+    let side: Sidecar =
+        serde_json::from_str(&text).with_context(|| format!("{} is not a valid checkpoint sidecar", path.display()))?;
+    if side.format != FORMAT || side.version != VERSION {
+        bail!(
+            "{} is a '{}' v{} file; this build reads '{FORMAT}' v{VERSION}",
+            path.display(),
+            side.format,
+            side.version
+        );
+    }
+    let weights = path.parent().unwrap_or(Path::new(".")).join(&side.weights);
+    let loaded = Loaded::read(&weights)?;
+    if checksum(loaded.bytes()) != side.weights_crc32 {
+        bail!("{} does not match the checksum in {}: the file is corrupt", weights.display(), path.display());
+    }
+    Ok((side, loaded))
+}
+
+/// Restores `t` (built from the sidecar's config) to the checkpoint's exact state.
+pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
+    let n = t.env.num_envs();
+    if side.num_envs != n || side.obs_dim != t.env.obs_dim() || side.action_dim != t.env.action_dim() {
+        bail!(
+            "checkpoint is for {} envs × {} observations × {} actions, this run has {n} × {} × {}",
+            side.num_envs,
+            side.obs_dim,
+            side.action_dim,
+            t.env.obs_dim(),
+            t.env.action_dim()
+        );
+    }
+    if side.with_adversary != t.adversary.is_some() {
+        bail!(
+            "checkpoint {} an adversary; resume it {} --adversary",
+            if side.with_adversary { "has" } else { "has no" },
+            if side.with_adversary { "with" } else { "without" }
+        );
+    }
+    load_agent(l, "policy", &mut t.policy, &side.policy)?;
+    if let (Some(a), Some(meta)) = (&mut t.adversary, &side.adversary) {
+        load_agent(l, "adversary", &mut a.agent, meta)?;
+    }
+    let snap = EnvSnapshot {
+        f64_width: side.env_f64_width,
+        f64s: l.f64("env.f64", &[n, side.env_f64_width])?,
+        u64_width: side.env_u64_width,
+        u64s: l.u64("env.u64", &[n, side.env_u64_width])?,
+        obs: l.f32("env.obs", &[n, side.obs_dim])?,
+    };
+    t.env.load_state(&snap)?;
+    if side.rng.len() != topa_env::task::RNG_WORDS {
+        bail!("checkpoint RNG state has {} words, expected {}", side.rng.len(), topa_env::task::RNG_WORDS);
+    }
+    t.rng = topa_env::task::load_rng(&side.rng);
+    t.iteration = side.iteration;
+    t.samples = side.samples;
+    t.wall_time_s = side.wall_time_s;
+    Ok(())
+}

@@ -1,0 +1,176 @@
+//! Per-iteration scalars to `metrics.csv` (one row per iteration, each reward term a column) and to a TensorBoard
+//! event file (`tb/`), which TensorBoard and most experiment trackers read.
+
+use std::fs::OpenOptions;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+
+use crate::ppo::UpdateStats;
+use crate::train::IterationLog;
+
+pub struct MetricsWriter {
+    csv_path: PathBuf,
+    csv: std::fs::File,
+    columns: Vec<String>,
+    tb: tboard::EventWriter<std::fs::File>,
+}
+
+fn update_columns(prefix: &str) -> Vec<String> {
+    [
+        "surrogate",
+        "value_loss",
+        "entropy",
+        "symmetry_loss",
+        "decay_loss",
+        "kl",
+        "lr",
+        "clip_fraction",
+        "grad_norm",
+        "skipped",
+    ]
+    .iter()
+    .map(|c| format!("{prefix}_{c}"))
+    .collect()
+}
+
+fn update_values(u: &Option<UpdateStats>) -> Vec<f64> {
+    match u {
+        Some(u) => vec![
+            u.surrogate,
+            u.value_loss,
+            u.entropy,
+            u.symmetry_loss,
+            u.decay_loss,
+            u.kl,
+            u.learning_rate,
+            u.clip_fraction,
+            u.grad_norm,
+            u.skipped as f64,
+        ],
+        None => vec![f64::NAN; 10],
+    }
+}
+
+impl MetricsWriter {
+    /// Opens `dir/metrics.csv` and a new event file under `dir/tb/`. When resuming at `resume_iteration`, rows
+    /// after it (written before the interruption, and about to be redone) are dropped.
+    pub fn open(dir: &Path, term_names: &[String], resume_iteration: Option<usize>) -> Result<Self> {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let mut columns: Vec<String> = [
+            "iteration",
+            "phase",
+            "cycle",
+            "samples",
+            "wall_time_s",
+            "fps",
+            "collect_s",
+            "update_s",
+            "episodes",
+            "mean_return",
+            "mean_length",
+            "time_out_share",
+            "diverged",
+            "mean_step_reward",
+            "action_std",
+            "perturb_command",
+            "perturb_gravity",
+            "perturb_foot_force",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        columns.extend(update_columns("policy"));
+        columns.extend(update_columns("adversary"));
+        columns.extend(term_names.iter().map(|t| format!("rew_{t}")));
+        let csv_path = dir.join("metrics.csv");
+        let header = columns.join(",");
+        let kept = match (resume_iteration, std::fs::read_to_string(&csv_path)) {
+            (Some(it), Ok(text)) if text.lines().next() == Some(header.as_str()) => text
+                .lines()
+                .skip(1)
+                .filter(|l| l.split(',').next().and_then(|v| v.parse::<usize>().ok()).is_some_and(|i| i <= it))
+                .map(|l| format!("{l}\n"))
+                .collect::<String>(),
+            _ => String::new(),
+        };
+        crate::tensorfile::write_atomic(&csv_path, format!("{header}\n{kept}").as_bytes())?;
+        let csv = OpenOptions::new().append(true).open(&csv_path)?;
+        let tb = tboard::EventWriter::create(dir.join("tb")).map_err(|e| anyhow::anyhow!("TensorBoard writer: {e}"))?;
+        Ok(MetricsWriter { csv_path, csv, columns, tb })
+    }
+
+    pub fn csv_path(&self) -> &Path {
+        &self.csv_path
+    }
+
+    pub fn write(&mut self, log: &IterationLog) -> Result<()> {
+        let e = &log.episodes;
+        let mut values = vec![
+            log.iteration as f64,
+            log.phase.number() as f64,
+            log.cycle as f64,
+            log.samples as f64,
+            log.wall_time_s,
+            log.fps,
+            log.collect_s,
+            log.update_s,
+            e.episodes as f64,
+            e.mean_return,
+            e.mean_length,
+            e.time_out_share,
+            e.diverged as f64,
+            log.mean_step_reward,
+            log.action_std,
+            log.perturbation[0],
+            log.perturbation[1],
+            log.perturbation[2],
+        ];
+        values.extend(update_values(&log.policy));
+        values.extend(update_values(&log.adversary));
+        values.extend(e.mean_terms.iter().copied());
+        values.resize(self.columns.len(), f64::NAN);
+        let row: Vec<String> = values.iter().map(|v| if v.is_nan() { String::new() } else { format!("{v}") }).collect();
+        writeln!(self.csv, "{}", row.join(","))?;
+        self.csv.flush()?;
+        let step = log.iteration as i64;
+        for (name, v) in self.columns.iter().zip(&values).skip(1) {
+            if v.is_nan() || (e.episodes == 0 && is_episode_column(name)) {
+                continue;
+            }
+            self.tb.write_scalar(step, &tb_tag(name), *v as f32).map_err(|e| anyhow::anyhow!("TensorBoard: {e}"))?;
+        }
+        self.tb.flush().map_err(|e| anyhow::anyhow!("TensorBoard: {e}"))?;
+        Ok(())
+    }
+}
+
+fn is_episode_column(name: &str) -> bool {
+    name.starts_with("rew_") || ["mean_return", "mean_length", "time_out_share"].contains(&name)
+}
+
+/// Groups scalars in TensorBoard: "episode/…", "policy/…", "adversary/…", "reward/…", "perf/…".
+fn tb_tag(column: &str) -> String {
+    if let Some(t) = column.strip_prefix("rew_") {
+        return format!("reward/{t}");
+    }
+    for p in ["policy_", "adversary_", "perturb_"] {
+        if let Some(t) = column.strip_prefix(p) {
+            return format!("{}/{t}", p.trim_end_matches('_'));
+        }
+    }
+    match column {
+        "fps" | "collect_s" | "update_s" | "wall_time_s" | "samples" => format!("perf/{column}"),
+        _ => format!("episode/{column}"),
+    }
+}
+
+/// Reads `metrics.csv` back: column names and rows (empty cells as NaN). For plots and tests.
+pub fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>)> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().unwrap_or("").split(',').map(str::to_string).collect();
+    let rows = lines.map(|l| l.split(',').map(|v| v.parse().unwrap_or(f64::NAN)).collect()).collect();
+    Ok((header, rows))
+}

@@ -1,0 +1,160 @@
+//! Reading and writing the safetensors files we ship and checkpoint: named f32/f64/u64 arrays, written
+//! atomically (temporary file in the same directory, fsync, rename), read back with every name, dtype and shape
+//! checked and a clear error that names the file and the fix.
+
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use safetensors::tensor::{Dtype, TensorView};
+use safetensors::SafeTensors;
+
+/// Named arrays to write.
+#[derive(Default)]
+pub struct Bundle {
+    entries: Vec<(String, Dtype, Vec<usize>, Vec<u8>)>,
+}
+
+impl Bundle {
+    pub fn add_f32(&mut self, name: &str, shape: &[usize], data: &[f32]) {
+        assert_eq!(shape.iter().product::<usize>(), data.len(), "shape of {name}");
+        self.entries.push((
+            name.into(),
+            Dtype::F32,
+            shape.to_vec(),
+            data.iter().flat_map(|x| x.to_le_bytes()).collect(),
+        ));
+    }
+
+    pub fn add_f64(&mut self, name: &str, shape: &[usize], data: &[f64]) {
+        assert_eq!(shape.iter().product::<usize>(), data.len(), "shape of {name}");
+        self.entries.push((
+            name.into(),
+            Dtype::F64,
+            shape.to_vec(),
+            data.iter().flat_map(|x| x.to_le_bytes()).collect(),
+        ));
+    }
+
+    pub fn add_u64(&mut self, name: &str, shape: &[usize], data: &[u64]) {
+        assert_eq!(shape.iter().product::<usize>(), data.len(), "shape of {name}");
+        self.entries.push((
+            name.into(),
+            Dtype::U64,
+            shape.to_vec(),
+            data.iter().flat_map(|x| x.to_le_bytes()).collect(),
+        ));
+    }
+
+    /// Serialises to bytes (safetensors sorts by name; metadata goes in the header).
+    pub fn to_bytes(&self, metadata: Option<HashMap<String, String>>) -> Result<Vec<u8>> {
+        let views = self
+            .entries
+            .iter()
+            .map(|(n, d, s, b)| Ok((n.clone(), TensorView::new(*d, s.clone(), b)?)))
+            .collect::<Result<Vec<_>, safetensors::SafeTensorError>>()?;
+        Ok(safetensors::serialize(views, metadata)?)
+    }
+}
+
+/// Writes `bytes` to `path` atomically: a crash leaves either the old file or the new one, never a torn one.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let name = path.file_name().context("file name")?.to_string_lossy();
+    let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    {
+        let mut f = std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
+        f.write_all(bytes).with_context(|| format!("writing {}", tmp.display()))?;
+        f.sync_all()?;
+    }
+    std::fs::rename(&tmp, path).with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))?;
+    // Make the rename itself durable.
+    if let Ok(d) = std::fs::File::open(dir) {
+        let _ = d.sync_all();
+    }
+    Ok(())
+}
+
+/// A safetensors file read into memory, with checked accessors.
+pub struct Loaded {
+    path: PathBuf,
+    bytes: Vec<u8>,
+}
+
+impl Loaded {
+    pub fn read(path: &Path) -> Result<Loaded> {
+        let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+        SafeTensors::deserialize(&bytes).map_err(|e| {
+            anyhow::anyhow!(
+                "{} is not a valid safetensors file ({e}): the file is corrupt or truncated",
+                path.display()
+            )
+        })?;
+        Ok(Loaded { path: path.to_path_buf(), bytes })
+    }
+
+    pub fn bytes(&self) -> &[u8] {
+        &self.bytes
+    }
+
+    fn view(&self, name: &str, dtype: Dtype, shape: &[usize]) -> Result<Vec<u8>> {
+        let st = SafeTensors::deserialize(&self.bytes)?;
+        let t = st.tensor(name).map_err(|_| {
+            anyhow::anyhow!(
+                "{} has no tensor '{name}': it was written by another version or for another network",
+                self.path.display()
+            )
+        })?;
+        if t.dtype() != dtype || t.shape() != shape {
+            bail!(
+                "{}: tensor '{name}' is {:?} {:?}, expected {:?} {:?} (a network of another size?)",
+                self.path.display(),
+                t.dtype(),
+                t.shape(),
+                dtype,
+                shape
+            );
+        }
+        Ok(t.data().to_vec())
+    }
+
+    pub fn f32(&self, name: &str, shape: &[usize]) -> Result<Vec<f32>> {
+        let v: Vec<f32> = self
+            .view(name, Dtype::F32, shape)?
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+            .collect();
+        if v.iter().any(|x| !x.is_finite()) {
+            bail!("{}: tensor '{name}' holds non-finite values", self.path.display());
+        }
+        Ok(v)
+    }
+
+    pub fn f64(&self, name: &str, shape: &[usize]) -> Result<Vec<f64>> {
+        Ok(self
+            .view(name, Dtype::F64, shape)?
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+            .collect())
+    }
+
+    pub fn u64(&self, name: &str, shape: &[usize]) -> Result<Vec<u64>> {
+        Ok(self
+            .view(name, Dtype::U64, shape)?
+            .chunks_exact(8)
+            .map(|c| u64::from_le_bytes(c.try_into().unwrap()))
+            .collect())
+    }
+
+    /// The shape of a tensor, if present.
+    pub fn shape(&self, name: &str) -> Option<Vec<usize>> {
+        SafeTensors::deserialize(&self.bytes).ok()?.tensor(name).ok().map(|t| t.shape().to_vec())
+    }
+}
+
+/// CRC-32 of a file's bytes, recorded in sidecars so a changed or damaged weights file is caught.
+pub fn checksum(bytes: &[u8]) -> u32 {
+    crc32fast::hash(bytes)
+}

@@ -1,0 +1,327 @@
+//! The training loop: rollouts on any `VecEnv`, PPO updates of whichever agent the schedule says learns, and
+//! the cyclic adversary's perturbations. Everything random comes from one seeded stream, so a seed (plus a
+//! checkpoint, when resuming) fixes the run.
+
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use topa_env::{EpisodeStats, VecEnv};
+
+use crate::actor_critic::ActorCritic;
+use crate::adversary;
+use crate::config::{LossConfig, TrainConfig};
+use crate::ppo::{ActOutput, Agent, UpdateStats};
+use crate::schedule::{Phase, Position, Schedule};
+use crate::storage::Rollout;
+
+/// The adversary agent and its perturbation bounds.
+pub struct Adversary {
+    pub agent: Agent,
+    pub bounds: Vec<f32>,
+}
+
+/// What one iteration did (one row of the training log).
+#[derive(Debug, Clone)]
+pub struct IterationLog {
+    pub iteration: usize,
+    pub phase: Phase,
+    pub cycle: usize,
+    pub samples: u64,
+    pub wall_time_s: f64,
+    pub collect_s: f64,
+    pub update_s: f64,
+    /// Environment samples per second over this iteration (collection + update).
+    pub fps: f64,
+    pub episodes: EpisodeStats,
+    /// Mean reward per step over the rollout (the policy's task reward, under attack in phase 3).
+    pub mean_step_reward: f64,
+    pub policy: Option<UpdateStats>,
+    pub adversary: Option<UpdateStats>,
+    /// Mean |command offset|, |gravity offset|, |foot force| the adversary applied (zeros in phase 1).
+    pub perturbation: [f64; 3],
+    pub action_std: f64,
+}
+
+pub struct Trainer {
+    pub cfg: TrainConfig,
+    pub env: Box<dyn VecEnv>,
+    pub policy: Agent,
+    pub adversary: Option<Adversary>,
+    pub schedule: Schedule,
+    pub rng: ChaCha8Rng,
+    /// Iterations done.
+    pub iteration: usize,
+    pub samples: u64,
+    pub wall_time_s: f64,
+    policy_rollout: Rollout,
+    adversary_rollout: Option<Rollout>,
+    scratch: Scratch,
+}
+
+/// Per-step buffers for the agent that acts without learning, and for perturbations.
+#[derive(Default)]
+struct Scratch {
+    raw_obs: Vec<f32>,
+    obs_norm: Vec<f32>,
+    actions: Vec<f32>,
+    means: Vec<f32>,
+    log_probs: Vec<f32>,
+    values: Vec<f32>,
+    adv_obs_norm: Vec<f32>,
+    adv_actions: Vec<f32>,
+    adv_means: Vec<f32>,
+    adv_log_probs: Vec<f32>,
+    adv_values: Vec<f32>,
+    perturbation: Vec<f32>,
+}
+
+impl Trainer {
+    /// A fresh run on `env`. With `with_adversary`, the paper's cyclic schedule from `cfg.adversary`; otherwise
+    /// `cfg.run.iterations` of plain PPO.
+    pub fn new(cfg: TrainConfig, env: Box<dyn VecEnv>, with_adversary: bool) -> Result<Self> {
+        cfg.validate().map_err(anyhow::Error::msg)?;
+        let mut rng = ChaCha8Rng::seed_from_u64(cfg.run.seed);
+        let (n, od, ad) = (env.num_envs(), env.obs_dim(), env.action_dim());
+        let net = &cfg.network;
+        let ac = ActorCritic::new(od, ad, &net.actor_hidden, &net.critic_hidden, net.init_noise_std, &mut rng)?;
+        let policy = Agent::new(ac, cfg.ppo.clone(), cfg.losses.clone(), env.symmetry());
+        let (adversary, schedule) = if with_adversary {
+            let pd = env.perturbation_dim();
+            anyhow::ensure!(pd > 0, "this task takes no perturbations, so it cannot be trained with an adversary");
+            let a = &cfg.adversary;
+            let ac = ActorCritic::new(od, pd, &a.hidden, &a.hidden, net.init_noise_std, &mut rng)?;
+            let mut ppo = cfg.ppo.clone();
+            ppo.learning_rate = a.learning_rate;
+            // No symmetry or decay for the adversary: the paper applies them to the locomotion policy.
+            let losses = LossConfig { symmetry_coef: 0.0, decay_coef: 0.0 };
+            let agent = Agent::new(ac, ppo, losses, None);
+            let sched =
+                Schedule::cyclic(a.phase1_policy_iters, a.phase2_adversary_iters, a.phase3_policy_iters, a.cycles);
+            (Some(Adversary { agent, bounds: adversary::bounds(a, pd) }), sched)
+        } else {
+            (None, Schedule::plain(cfg.run.iterations))
+        };
+        let steps = cfg.run.steps_per_env;
+        let adversary_rollout = adversary.as_ref().map(|a| Rollout::new(steps, n, od, a.bounds.len()));
+        let mut t = Trainer {
+            policy_rollout: Rollout::new(steps, n, od, ad),
+            adversary_rollout,
+            scratch: Scratch::default(),
+            cfg,
+            env,
+            policy,
+            adversary,
+            schedule,
+            rng,
+            iteration: 0,
+            samples: 0,
+            wall_time_s: 0.0,
+        };
+        t.env.reset().context("resetting the environments")?;
+        Ok(t)
+    }
+
+    pub fn total_iterations(&self) -> usize {
+        self.schedule.total()
+    }
+
+    pub fn position(&self) -> Option<Position> {
+        self.schedule.position(self.iteration)
+    }
+
+    pub fn is_done(&self) -> bool {
+        self.position().is_none()
+    }
+
+    /// Runs one iteration (rollout + update of whichever agent learns in this phase); None when the schedule is
+    /// complete.
+    pub fn iterate(&mut self) -> Result<Option<IterationLog>> {
+        let Some(pos) = self.position() else { return Ok(None) };
+        let start = Instant::now();
+        // Freeze what does not learn in this phase: no normaliser updates, no gradient work.
+        self.policy.normalizer.frozen = !pos.phase.policy_learns();
+        if let Some(a) = &mut self.adversary {
+            a.agent.normalizer.frozen = pos.phase != Phase::Adversary;
+        }
+        let (mean_step_reward, perturbation) = self.collect(pos.phase)?;
+        let collect_s = start.elapsed().as_secs_f64();
+        let t_update = Instant::now();
+        let (mut policy_stats, mut adversary_stats) = (None, None);
+        if pos.phase.policy_learns() {
+            policy_stats = Some(self.policy.update(&self.policy_rollout, &mut self.rng)?);
+        } else if let (Some(a), Some(r)) = (&mut self.adversary, &self.adversary_rollout) {
+            adversary_stats = Some(a.agent.update(r, &mut self.rng)?);
+        }
+        let update_s = t_update.elapsed().as_secs_f64();
+        let n = (self.env.num_envs() * self.cfg.run.steps_per_env) as u64;
+        self.samples += n;
+        self.iteration += 1;
+        let elapsed = start.elapsed().as_secs_f64();
+        self.wall_time_s += elapsed;
+        let std = self.policy.ac.std()?;
+        Ok(Some(IterationLog {
+            iteration: self.iteration,
+            phase: pos.phase,
+            cycle: pos.cycle,
+            samples: self.samples,
+            wall_time_s: self.wall_time_s,
+            collect_s,
+            update_s,
+            fps: n as f64 / elapsed,
+            episodes: self.env.take_episode_stats(),
+            mean_step_reward,
+            policy: policy_stats,
+            adversary: adversary_stats,
+            perturbation,
+            action_std: std.iter().map(|&s| s as f64).sum::<f64>() / std.len() as f64,
+        }))
+    }
+
+    /// One rollout of `steps_per_env` steps; fills the learning agent's storage and computes its returns.
+    fn collect(&mut self, phase: Phase) -> Result<(f64, [f64; 3])> {
+        let (n, od, ad) = (self.env.num_envs(), self.env.obs_dim(), self.env.action_dim());
+        let steps = self.cfg.run.steps_per_env;
+        let gamma = self.cfg.ppo.gamma;
+        let policy_learns = phase.policy_learns();
+        let adversary_acts = phase.adversary_acts() && self.adversary.is_some();
+        let pd = self.adversary.as_ref().map_or(0, |a| a.bounds.len());
+        let s = &mut self.scratch;
+        s.raw_obs.resize(n * od, 0.0);
+        for (v, len) in
+            [(&mut s.obs_norm, n * od), (&mut s.actions, n * ad), (&mut s.means, n * ad), (&mut s.adv_obs_norm, n * od)]
+        {
+            v.resize(len, 0.0);
+        }
+        for v in [&mut s.log_probs, &mut s.values, &mut s.adv_log_probs, &mut s.adv_values] {
+            v.resize(n, 0.0);
+        }
+        for v in [&mut s.adv_actions, &mut s.adv_means, &mut s.perturbation] {
+            v.resize(n * pd, 0.0);
+        }
+        if pd > 0 && !adversary_acts {
+            self.env.set_perturbations(&vec![0.0; n * pd])?;
+        }
+        self.policy_rollout.clear();
+        if let Some(r) = &mut self.adversary_rollout {
+            r.clear();
+        }
+        let (mut reward_sum, mut magnitude) = (0.0f64, [0.0f64; 3]);
+        for t in 0..steps {
+            let s = &mut self.scratch;
+            s.raw_obs.copy_from_slice(self.env.obs());
+            // The policy acts: sampling and storing when it learns, its mean action when frozen.
+            if policy_learns {
+                let r = &mut self.policy_rollout;
+                let k = r.next_step();
+                let out = ActOutput {
+                    obs_norm: &mut r.obs[k * n * od..(k + 1) * n * od],
+                    actions: &mut r.actions[k * n * ad..(k + 1) * n * ad],
+                    means: &mut r.means[k * n * ad..(k + 1) * n * ad],
+                    log_probs: &mut r.log_probs[k * n..(k + 1) * n],
+                    values: &mut r.values[k * n..(k + 1) * n],
+                };
+                self.policy.act(&s.raw_obs, &mut self.rng, true, out)?;
+                s.actions.copy_from_slice(&r.actions[k * n * ad..(k + 1) * n * ad]);
+            } else {
+                let out = ActOutput {
+                    obs_norm: &mut s.obs_norm,
+                    actions: &mut s.actions,
+                    means: &mut s.means,
+                    log_probs: &mut s.log_probs,
+                    values: &mut s.values,
+                };
+                self.policy.act(&s.raw_obs, &mut self.rng, false, out)?;
+            }
+            // The adversary perturbs (phases 2 and 3), sampling its actions in both.
+            if adversary_acts {
+                let a = self.adversary.as_mut().expect("adversary");
+                if phase == Phase::Adversary {
+                    let r = self.adversary_rollout.as_mut().expect("adversary rollout");
+                    let k = r.next_step();
+                    let out = ActOutput {
+                        obs_norm: &mut r.obs[k * n * od..(k + 1) * n * od],
+                        actions: &mut r.actions[k * n * pd..(k + 1) * n * pd],
+                        means: &mut r.means[k * n * pd..(k + 1) * n * pd],
+                        log_probs: &mut r.log_probs[k * n..(k + 1) * n],
+                        values: &mut r.values[k * n..(k + 1) * n],
+                    };
+                    a.agent.act(&s.raw_obs, &mut self.rng, true, out)?;
+                    s.adv_actions.copy_from_slice(&r.actions[k * n * pd..(k + 1) * n * pd]);
+                } else {
+                    let out = ActOutput {
+                        obs_norm: &mut s.adv_obs_norm,
+                        actions: &mut s.adv_actions,
+                        means: &mut s.adv_means,
+                        log_probs: &mut s.adv_log_probs,
+                        values: &mut s.adv_values,
+                    };
+                    a.agent.act(&s.raw_obs, &mut self.rng, true, out)?;
+                }
+                adversary::squash(&s.adv_actions, &a.bounds, &mut s.perturbation);
+                let m = adversary::magnitudes(&s.perturbation, pd);
+                for i in 0..3 {
+                    magnitude[i] += m[i] / steps as f64;
+                }
+                self.env.set_perturbations(&s.perturbation)?;
+            }
+            self.env.step(&s.actions)?;
+            reward_sum += self.env.rewards().iter().map(|&r| r as f64).sum::<f64>();
+            self.store_rewards(t, phase, gamma)?;
+        }
+        // Bootstrap values of the observations after the last step.
+        let mut last = vec![0.0f32; n];
+        let final_obs = self.env.obs().to_vec();
+        if policy_learns {
+            self.policy.values(&final_obs, &mut last);
+            self.policy_rollout.compute_returns(&last, gamma, self.cfg.ppo.gae_lambda);
+        } else if let (Some(a), Some(r)) = (&mut self.adversary, &mut self.adversary_rollout) {
+            a.agent.values(&final_obs, &mut last);
+            r.compute_returns(&last, gamma, self.cfg.ppo.gae_lambda);
+        }
+        Ok((reward_sum / (n * steps) as f64, magnitude))
+    }
+
+    /// Stores step `t`'s rewards and dones for the learning agent, adding γ·V(terminal observation) where an
+    /// episode ended by time-out (it did not fail: its value is not zero).
+    fn store_rewards(&mut self, t: usize, phase: Phase, gamma: f64) -> Result<()> {
+        let n = self.env.num_envs();
+        let od = self.env.obs_dim();
+        let timed_out: Vec<usize> = (0..n).filter(|&e| self.env.time_outs()[e] > 0.5).collect();
+        let mut boot = vec![0.0f32; n];
+        if !timed_out.is_empty() {
+            let term = self.env.terminal_obs();
+            let rows: Vec<f32> = timed_out.iter().flat_map(|&e| term[e * od..(e + 1) * od].iter().copied()).collect();
+            let mut v = vec![0.0f32; timed_out.len()];
+            match (phase, &mut self.adversary) {
+                (Phase::Adversary, Some(a)) => a.agent.values(&rows, &mut v),
+                _ => self.policy.values(&rows, &mut v),
+            }
+            for (&e, &val) in timed_out.iter().zip(&v) {
+                boot[e] = (gamma * val as f64) as f32;
+            }
+        }
+        let rewards = self.env.rewards();
+        let dones = self.env.dones();
+        if phase.policy_learns() {
+            let r = &mut self.policy_rollout;
+            for e in 0..n {
+                r.rewards[t * n + e] = rewards[e] + boot[e];
+                r.dones[t * n + e] = dones[e];
+            }
+            r.std = self.policy.ac.std()?;
+        } else if let (Some(a), Some(r)) = (&self.adversary, &mut self.adversary_rollout) {
+            let pd = a.bounds.len();
+            let cost = self.cfg.adversary.magnitude_cost;
+            let p = &self.scratch.perturbation;
+            for e in 0..n {
+                let own = adversary::reward(rewards[e], &p[e * pd..(e + 1) * pd], &a.bounds, cost);
+                r.rewards[t * n + e] = own + boot[e];
+                r.dones[t * n + e] = dones[e];
+            }
+            r.std = a.agent.ac.std()?;
+        }
+        Ok(())
+    }
+}
