@@ -7,6 +7,33 @@ use clap::{Parser, Subcommand};
 
 mod bench;
 mod info;
+mod plots;
+mod train_cmd;
+
+/// Threads to use: `n`, or every core for 0.
+pub fn resolve_threads(n: usize) -> usize {
+    if n == 0 {
+        std::thread::available_parallelism().map_or(1, |p| p.get())
+    } else {
+        n
+    }
+}
+
+/// Today's date (UTC) as YYYY-MM-DD, for provenance records.
+pub fn today() -> String {
+    let days = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs() / 86400) as i64;
+    // Howard Hinnant's civil-from-days.
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + if m <= 2 { 1 } else { 0 };
+    format!("{y:04}-{m:02}-{d:02}")
+}
 
 #[derive(Parser)]
 #[command(
@@ -32,6 +59,38 @@ enum Cmd {
     /// Performance benchmarks (ratios measured in one run).
     #[command(subcommand)]
     Bench(BenchCmd),
+    /// Train a policy with PPO (symmetry loss, last-layer decay; --adversary for the cyclic adversary).
+    Train {
+        /// TOML preset: configs/paper.toml (the paper's table) or configs/cpu.toml (2-core machine).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Which robot model: closed (the paper's C) or open (the serial baseline O).
+        #[arg(long)]
+        model: Option<topa_env::ModelKind>,
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Output folder (default runs/<model>[-adversary]-seed<S>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Run the paper's cyclic adversarial schedule (phase 1, then 2/3 × cycles).
+        #[arg(long)]
+        adversary: bool,
+        /// Threads for environments and networks (default: the config's; 0 = all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Override run.iterations (plain PPO only).
+        #[arg(long)]
+        iterations: Option<usize>,
+        /// Continue the run in this folder from its latest checkpoint.
+        #[arg(long, conflicts_with = "config")]
+        resume: Option<PathBuf>,
+        /// Start the policy from another run's checkpoint (folder or sidecar), e.g. C+A from C.
+        #[arg(long)]
+        init_from: Option<PathBuf>,
+        /// No progress bar; a status line every 10 iterations on stderr (for nohup logs).
+        #[arg(long)]
+        quiet: bool,
+    },
 }
 
 #[derive(Subcommand)]
@@ -78,6 +137,9 @@ enum BenchCmd {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Cmd::Info { model, json } => info::run(&model, json),
+        Cmd::Train { config, model, seed, out, adversary, threads, iterations, resume, init_from, quiet } => {
+            train_cmd::run(train_cmd::TrainArgs { config, model, seed, out, adversary, threads, iterations, resume, init_from, quiet })
+        }
         Cmd::Bench(BenchCmd::Physics { model, steps, rounds, batch, no_testspeed }) => {
             bench::physics::run(&model, steps, rounds, batch, !no_testspeed)
         }

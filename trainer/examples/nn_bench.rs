@@ -11,7 +11,8 @@
 //! * `ours`: `nn::Mlp::forward` (the fused layer chain).
 //!
 //! ```text
-//! cargo run --release -p trainer --example nn_bench -- --threads 2 [--repeats 5] [--variants ours,plain]
+//! cargo run --release -p trainer --example nn_bench -- --threads 2 [--repeats 5] [--variants ours,layerwise,plain]
+//!     [--no-inference]
 //! ```
 
 use anyhow::Result;
@@ -149,6 +150,9 @@ fn main() -> Result<()> {
         );
     }
 
+    if args.iter().any(|a| a == "--no-inference") {
+        return Ok(());
+    }
     // Rollout inference: batched actor forward, 4096 rows.
     let s = &setups[0];
     let rows = 4096;

@@ -228,3 +228,21 @@ pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
     t.wall_time_s = side.wall_time_s;
     Ok(())
 }
+
+/// Starts `t` from another run's policy (e.g. C+A from a C run's checkpoint): the policy's weights, Adam state,
+/// learning rate and normaliser, and the iteration count up to the end of phase 1 (so a finished C run goes
+/// straight to the adversary's first phase). The environments and the RNG stay fresh.
+pub fn init_policy_from(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
+    if side.obs_dim != t.env.obs_dim() || side.action_dim != t.env.action_dim() {
+        bail!("the checkpoint's policy has {}→{} inputs/outputs, this task needs {}→{}", side.obs_dim, side.action_dim, t.env.obs_dim(), t.env.action_dim());
+    }
+    if side.config.network != t.cfg.network {
+        bail!("the checkpoint's network ({:?}) differs from this config's ({:?})", side.config.network, t.cfg.network);
+    }
+    load_agent(l, "policy", &mut t.policy, &side.policy)?;
+    let phase1 = if t.adversary.is_some() { t.cfg.adversary.phase1_policy_iters } else { t.cfg.run.iterations };
+    t.iteration = side.iteration.min(phase1);
+    t.samples = side.samples;
+    t.wall_time_s = side.wall_time_s;
+    Ok(())
+}
