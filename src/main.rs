@@ -6,6 +6,8 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod bench;
+mod eval;
+mod eval_cmd;
 mod info;
 mod plots;
 mod train_cmd;
@@ -59,6 +61,30 @@ enum Cmd {
     /// Performance benchmarks (ratios measured in one run).
     #[command(subcommand)]
     Bench(BenchCmd),
+    /// Sim2sim evaluation of a policy on the closed model (the paper's experiments).
+    Eval {
+        #[command(subcommand)]
+        cmd: eval_cmd::EvalCmd,
+        #[command(flatten)]
+        common: eval_cmd::Common,
+    },
+    /// All three experiments for O, C and C+A, with the paper's numbers beside ours and the heatmaps.
+    Ablate {
+        /// Policy trained on the open (serial) model.
+        #[arg(long)]
+        o: Option<PathBuf>,
+        /// Policy trained on the closed model.
+        #[arg(long)]
+        c: Option<PathBuf>,
+        /// Policy trained on the closed model with the cyclic adversary.
+        #[arg(long)]
+        ca: Option<PathBuf>,
+        /// The paper's full protocol (13 × 13 push grid, 100 noise runs per level) instead of the quick one.
+        #[arg(long)]
+        full: bool,
+        #[command(flatten)]
+        common: eval_cmd::Common,
+    },
     /// Train a policy with PPO (symmetry loss, last-layer decay; --adversary for the cyclic adversary).
     Train {
         /// TOML preset: configs/paper.toml (the paper's table) or configs/cpu.toml (2-core machine).
@@ -139,6 +165,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Info { model, json } => info::run(&model, json),
         Cmd::Train { config, model, seed, out, adversary, threads, iterations, resume, init_from, quiet } => {
             train_cmd::run(train_cmd::TrainArgs { config, model, seed, out, adversary, threads, iterations, resume, init_from, quiet })
+        }
+        Cmd::Eval { cmd, common } => {
+            trainer::nn::init_threads(resolve_threads(common.threads))?;
+            eval_cmd::run_eval(cmd, common)
+        }
+        Cmd::Ablate { o, c, ca, full, common } => {
+            trainer::nn::init_threads(resolve_threads(common.threads))?;
+            eval_cmd::run_ablate(o, c, ca, full, common)
         }
         Cmd::Bench(BenchCmd::Physics { model, steps, rounds, batch, no_testspeed }) => {
             bench::physics::run(&model, steps, rounds, batch, !no_testspeed)

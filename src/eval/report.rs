@@ -1,0 +1,185 @@
+//! The paper's published numbers (data/paper_tables.toml, typed in from the paper) and the Markdown tables that
+//! put ours beside them; result files (JSON, CSV) written atomically.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use serde::Serialize;
+
+use super::noise::NoiseRow;
+use super::push::PushGrid;
+use super::tracking::{TrackingRow, COMMANDS};
+
+const PAPER_TOML: &str = include_str!("../../data/paper_tables.toml");
+
+/// The three policies of the ablation, as the paper names them.
+pub const POLICIES: [&str; 3] = ["O", "C", "CA"];
+
+pub fn label(p: &str) -> &str {
+    if p == "CA" {
+        "C+A"
+    } else {
+        p
+    }
+}
+
+#[derive(Debug, Clone, Default)]
+pub struct PaperTables {
+    /// command key → policy → [MAE, τ̄, roll, pitch, fell (0/1)].
+    pub tracking: BTreeMap<String, BTreeMap<String, [f64; 5]>>,
+    pub push_mean_t_fall: BTreeMap<String, f64>,
+    pub noise_success: BTreeMap<String, Vec<f64>>,
+}
+
+pub fn paper() -> Result<PaperTables> {
+    let v: toml::Value = toml::from_str(PAPER_TOML).context("data/paper_tables.toml")?;
+    let mut t = PaperTables::default();
+    for (key, _, _) in COMMANDS {
+        let row = &v["tracking"][key];
+        let mut per = BTreeMap::new();
+        for p in POLICIES {
+            let a = row[p].as_array().context("tracking row")?;
+            let num = |i: usize| a[i].as_float().or_else(|| a[i].as_integer().map(|x| x as f64)).unwrap_or(f64::NAN);
+            per.insert(p.to_string(), [num(0), num(1), num(2), num(3), if a[4].as_bool() == Some(true) { 1.0 } else { 0.0 }]);
+        }
+        t.tracking.insert(key.to_string(), per);
+    }
+    for (p, x) in v["push"]["mean_time_to_fall_s"].as_table().context("push")? {
+        t.push_mean_t_fall.insert(p.clone(), x.as_float().unwrap_or(f64::NAN));
+    }
+    for (p, x) in v["command_noise"]["success_pct"].as_table().context("noise")? {
+        let vals = x.as_array().context("noise row")?.iter().map(|y| y.as_integer().map_or(f64::NAN, |i| i as f64)).collect();
+        t.noise_success.insert(p.clone(), vals);
+    }
+    Ok(t)
+}
+
+fn fmt(x: f64, digits: usize) -> String {
+    if x.is_finite() {
+        format!("{x:.digits$}")
+    } else {
+        "–".into()
+    }
+}
+
+fn with_paper(ours: String, paper: Option<String>) -> String {
+    match paper {
+        Some(p) => format!("{ours} ({p})"),
+        None => ours,
+    }
+}
+
+/// The tracking table for one or more policies; `paper_of` maps each policy to its paper label, if any. Cells
+/// read "ours (paper)"; a fall is marked with *, as in the paper.
+pub fn tracking_markdown(results: &[(&str, &[TrackingRow])], paper: Option<&PaperTables>) -> String {
+    let mut s = String::new();
+    for (ci, (key, title, _)) in COMMANDS.iter().enumerate() {
+        let _ = writeln!(s, "\n**{title}**\n");
+        let _ = writeln!(s, "| Policy | v_x,y, w_z MAE | τ̄ (N·m) | θ̄_roll (rad) | θ̄_pitch (rad) |");
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|");
+        for (name, rows) in results {
+            let r = &rows[ci];
+            let p = paper.and_then(|t| t.tracking.get(*key)).and_then(|m| m.get(*name));
+            let star = if r.fell { "*" } else { "" };
+            let pstar = |p: &[f64; 5]| if p[4] > 0.5 { "*" } else { "" };
+            let _ = writeln!(
+                s,
+                "| {}{star} | {} | {} | {} | {} |",
+                label(name),
+                with_paper(fmt(r.mae, 2), p.map(|p| format!("{}{}", fmt(p[0], 2), pstar(p)))),
+                with_paper(fmt(r.mean_torque, 2), p.map(|p| fmt(p[1], 2))),
+                with_paper(fmt(r.mean_roll, 2), p.map(|p| fmt(p[2], 2))),
+                with_paper(fmt(r.mean_pitch, 2), p.map(|p| fmt(p[3], 2))),
+            );
+        }
+    }
+    let _ = writeln!(s, "\n\\* fell. Cells: ours (paper).");
+    s
+}
+
+pub fn push_markdown(results: &[(&str, &PushGrid)], paper: Option<&PaperTables>) -> String {
+    let mut s = String::from("| Policy | mean t_fall (s) | cells without a fall |\n|---|---:|---:|\n");
+    for (name, g) in results {
+        let p = paper.and_then(|t| t.push_mean_t_fall.get(*name)).map(|x| fmt(*x, 2));
+        let standing = g.t_fall.iter().filter(|&&t| t >= g.window_s).count();
+        let _ = writeln!(s, "| {} | {} | {standing}/{} |", label(name), with_paper(fmt(g.mean_t_fall(), 2), p), g.cells());
+    }
+    let _ = writeln!(s, "\nConstant torso force in the torso frame, window {} s. Cells: ours (paper).", results.first().map_or(10.0, |r| r.1.window_s));
+    s
+}
+
+pub fn noise_markdown(results: &[(&str, &[NoiseRow])], paper: Option<&PaperTables>) -> String {
+    let mut s = String::from("| Policy | σ_v (m/s) | σ_wz (rad/s) | success (%) |\n|---|---:|---:|---:|\n");
+    for (name, rows) in results {
+        for (i, r) in rows.iter().enumerate() {
+            let p = paper.and_then(|t| t.noise_success.get(*name)).and_then(|v| v.get(i)).map(|x| fmt(*x, 0));
+            let _ = writeln!(s, "| {} | {} | {} | {} |", label(name), r.sigma_v, r.sigma_wz, with_paper(fmt(r.success_pct, 0), p));
+        }
+    }
+    let runs = results.first().and_then(|r| r.1.first()).map_or(0, |r| r.runs);
+    let _ = writeln!(s, "\nWalk forward at 0.5 m/s with Gaussian command noise, {runs} runs per row. Cells: ours (paper).");
+    s
+}
+
+/// Writes `value` as pretty JSON to `dir/name`.
+pub fn write_json<T: Serialize>(dir: &Path, name: &str, value: &T) -> Result<()> {
+    trainer::tensorfile::write_atomic(&dir.join(name), serde_json::to_string_pretty(value)?.as_bytes())
+}
+
+pub fn tracking_csv(rows: &[TrackingRow]) -> String {
+    let mut s = String::from("command,v_x,v_y,w_z,mae,mean_torque,mean_roll,mean_pitch,fell,fell_at_s\n");
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{}",
+            r.key,
+            r.command[0],
+            r.command[1],
+            r.command[2],
+            r.mae,
+            r.mean_torque,
+            r.mean_roll,
+            r.mean_pitch,
+            r.fell,
+            r.fell_at.map_or(String::new(), |t| t.to_string())
+        );
+    }
+    s
+}
+
+pub fn push_csv(g: &PushGrid) -> String {
+    let mut s = String::from("f_x_n,f_y_n,t_fall_s\n");
+    for c in 0..g.cells() {
+        let f = g.force(c);
+        let _ = writeln!(s, "{},{},{}", f[0], f[1], g.t_fall[c]);
+    }
+    s
+}
+
+pub fn noise_csv(rows: &[NoiseRow]) -> String {
+    let mut s = String::from("sigma_v,sigma_wz,runs,successes,success_pct\n");
+    for r in rows {
+        let _ = writeln!(s, "{},{},{},{},{}", r.sigma_v, r.sigma_wz, r.runs, r.successes, r.success_pct);
+    }
+    s
+}
+
+pub fn write_text(dir: &Path, name: &str, text: &str) -> Result<()> {
+    trainer::tensorfile::write_atomic(&dir.join(name), text.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_tables_parse_with_the_published_values() {
+        let p = paper().unwrap();
+        assert_eq!(p.tracking["walk_forward"]["CA"], [0.34, 27.04, 0.0, 0.12, 0.0]);
+        assert_eq!(p.tracking["rotate_ccw"]["O"][4], 1.0);
+        assert_eq!(p.push_mean_t_fall["CA"], 9.71);
+        assert_eq!(p.noise_success["C"], vec![100.0, 79.0, 34.0, 12.0]);
+    }
+}

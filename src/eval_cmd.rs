@@ -1,0 +1,140 @@
+//! `topa eval tracking|push|noise` and `topa ablate`: run, print (Markdown or JSON), write results to a folder.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::{Args, Subcommand};
+
+use crate::eval::ablate::{self, Extent};
+use crate::eval::{noise, push, report, tracking, EvalSettings, PolicyRunner};
+
+#[derive(Args, Clone)]
+pub struct Common {
+    /// Print results as JSON instead of Markdown tables.
+    #[arg(long, global = true)]
+    pub json: bool,
+    /// Folder for result files (CSV, JSON, images).
+    #[arg(long, global = true, default_value = "out/eval")]
+    pub out: PathBuf,
+    /// Physics timestep of the evaluation, s (training used 0.005).
+    #[arg(long, global = true, default_value_t = 0.0025)]
+    pub timestep: f64,
+    /// Integrator: model (the MJCF's RK4), euler, rk4, implicit.
+    #[arg(long, global = true, default_value = "model")]
+    pub integrator: String,
+    /// Seed for the noise runs and env set-up.
+    #[arg(long, global = true, default_value_t = 1)]
+    pub seed: u64,
+    /// Worker threads (0 = all cores).
+    #[arg(long, global = true, default_value_t = 0)]
+    pub threads: usize,
+}
+
+impl Common {
+    pub fn settings(&self) -> EvalSettings {
+        EvalSettings { timestep: self.timestep, integrator: self.integrator.clone(), seed: self.seed, threads: self.threads, ..Default::default() }
+    }
+}
+
+#[derive(Subcommand)]
+pub enum EvalCmd {
+    /// The paper's six velocity commands: MAE, mean torque, mean roll/pitch, fall.
+    Tracking {
+        #[arg(long)]
+        policy: PathBuf,
+        /// Seconds per command (after settling).
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+    },
+    /// Constant torso force on a grid: time to fall, mean t_fall, heatmap (PNG + SVG).
+    Push {
+        #[arg(long)]
+        policy: PathBuf,
+        /// Grid half-range, N.
+        #[arg(long, default_value_t = 30.0)]
+        range: f64,
+        /// Grid step, N.
+        #[arg(long, default_value_t = 5.0)]
+        step: f64,
+        /// Observation window, s.
+        #[arg(long, default_value_t = 10.0)]
+        window: f64,
+    },
+    /// Walk forward at 0.5 m/s under Gaussian command noise at the paper's four levels: success rates.
+    Noise {
+        #[arg(long)]
+        policy: PathBuf,
+        /// Runs per noise level.
+        #[arg(long, default_value_t = 100)]
+        runs: usize,
+        /// Seconds per run.
+        #[arg(long, default_value_t = 20.0)]
+        seconds: f64,
+        /// Seconds between noise draws.
+        #[arg(long, default_value_t = 0.5)]
+        interval: f64,
+    },
+}
+
+fn print_json<T: serde::Serialize>(v: &T) -> Result<()> {
+    println!("{}", serde_json::to_string_pretty(v)?);
+    Ok(())
+}
+
+pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
+    let s = c.settings();
+    std::fs::create_dir_all(&c.out)?;
+    let paper = report::paper()?;
+    match cmd {
+        EvalCmd::Tracking { policy, seconds } => {
+            let mut r = PolicyRunner::load(&policy, "policy")?;
+            let rows = tracking::run(&mut r, &s, seconds, 2.0_f64.min(seconds / 2.0))?;
+            report::write_json(&c.out, "tracking.json", &rows)?;
+            report::write_text(&c.out, "tracking.csv", &report::tracking_csv(&rows))?;
+            if c.json {
+                return print_json(&rows);
+            }
+            println!("{}", report::tracking_markdown(&[("ours", &rows)], Some(&paper)));
+        }
+        EvalCmd::Push { policy, range, step, window } => {
+            let mut r = PolicyRunner::load(&policy, "policy")?;
+            let grid = push::run(&mut r, &s, range, step, window, [0.0; 3])?;
+            report::write_json(&c.out, "push.json", &grid)?;
+            report::write_text(&c.out, "push.csv", &report::push_csv(&grid))?;
+            crate::plots::push_heatmaps(&[("policy".into(), &grid)], &c.out.join("push_heatmap.png"), &c.out.join("push_heatmap.svg"))?;
+            if c.json {
+                return print_json(&grid);
+            }
+            println!("{}", report::push_markdown(&[("ours", &grid)], Some(&paper)));
+            println!("heatmap: {}", c.out.join("push_heatmap.png").display());
+        }
+        EvalCmd::Noise { policy, runs, seconds, interval } => {
+            let mut r = PolicyRunner::load(&policy, "policy")?;
+            let rows = noise::run(&mut r, &s, runs, seconds, interval)?;
+            report::write_json(&c.out, "noise.json", &rows)?;
+            report::write_text(&c.out, "noise.csv", &report::noise_csv(&rows))?;
+            if c.json {
+                return print_json(&rows);
+            }
+            println!("{}", report::noise_markdown(&[("ours", &rows)], Some(&paper)));
+        }
+    }
+    Ok(())
+}
+
+pub fn run_ablate(o: Option<PathBuf>, cp: Option<PathBuf>, ca: Option<PathBuf>, full: bool, c: Common) -> Result<()> {
+    let policies: Vec<(String, PathBuf)> =
+        [("O", o), ("C", cp), ("CA", ca)].into_iter().filter_map(|(n, p)| p.map(|p| (n.to_string(), p))).collect();
+    let extent = if full { Extent::full() } else { Extent::quick() };
+    let a = ablate::run(&policies, &c.settings(), &extent)?;
+    ablate::write(&a, &c.out)?;
+    if c.json {
+        return print_json(&a);
+    }
+    if !full {
+        println!("(quick protocol: {0}×{0} push grid, {1} noise runs of {2} s per level; --full for the paper's 13×13 and 100 runs)\n", ((2.0 * extent.push_range_n / extent.push_step_n) as usize) + 1, extent.noise_runs, extent.noise_seconds);
+    }
+    println!("{}", ablate::markdown(&a)?);
+    println!("results: {} (ablation.md, ablation.json, CSVs, heatmaps.png/svg)", c.out.display());
+    Ok(())
+}
