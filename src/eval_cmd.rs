@@ -32,7 +32,13 @@ pub struct Common {
 
 impl Common {
     pub fn settings(&self) -> EvalSettings {
-        EvalSettings { timestep: self.timestep, integrator: self.integrator.clone(), seed: self.seed, threads: self.threads, ..Default::default() }
+        EvalSettings {
+            timestep: self.timestep,
+            integrator: self.integrator.clone(),
+            seed: self.seed,
+            threads: self.threads,
+            ..Default::default()
+        }
     }
 }
 
@@ -101,7 +107,11 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             let grid = push::run(&mut r, &s, range, step, window, [0.0; 3])?;
             report::write_json(&c.out, "push.json", &grid)?;
             report::write_text(&c.out, "push.csv", &report::push_csv(&grid))?;
-            crate::plots::push_heatmaps(&[("policy".into(), &grid)], &c.out.join("push_heatmap.png"), &c.out.join("push_heatmap.svg"))?;
+            crate::plots::push_heatmaps(
+                &[("policy".into(), &grid)],
+                &c.out.join("push_heatmap.png"),
+                &c.out.join("push_heatmap.svg"),
+            )?;
             if c.json {
                 return print_json(&grid);
             }

@@ -5,37 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-mod bench;
-mod eval;
-mod eval_cmd;
-mod info;
-mod plots;
-mod train_cmd;
-
-/// Threads to use: `n`, or every core for 0.
-pub fn resolve_threads(n: usize) -> usize {
-    if n == 0 {
-        std::thread::available_parallelism().map_or(1, |p| p.get())
-    } else {
-        n
-    }
-}
-
-/// Today's date (UTC) as YYYY-MM-DD, for provenance records.
-pub fn today() -> String {
-    let days = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs() / 86400) as i64;
-    // Howard Hinnant's civil-from-days.
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + if m <= 2 { 1 } else { 0 };
-    format!("{y:04}-{m:02}-{d:02}")
-}
+use topa::{bench, eval_cmd, info, play, resolve_threads, train_cmd};
 
 #[derive(Parser)]
 #[command(
@@ -82,6 +52,21 @@ enum Cmd {
         /// The paper's full protocol (13 × 13 push grid, 100 noise runs per level) instead of the quick one.
         #[arg(long)]
         full: bool,
+        #[command(flatten)]
+        common: eval_cmd::Common,
+    },
+    /// Run a policy on the closed model with one command; record it to MCAP for Foxglove.
+    Play {
+        #[arg(long)]
+        policy: PathBuf,
+        /// Command v_x,v_y,w_z (m/s, m/s, rad/s), e.g. 0.5,0,0.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "0.5,0,0")]
+        command: Vec<f64>,
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+        /// Write an MCAP file (Foxglove: /tf, /scene, /joints, /motors, /base, /command, /contacts, /rewards).
+        #[arg(long)]
+        record: Option<PathBuf>,
         #[command(flatten)]
         common: eval_cmd::Common,
     },
@@ -164,7 +149,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Cmd::Info { model, json } => info::run(&model, json),
         Cmd::Train { config, model, seed, out, adversary, threads, iterations, resume, init_from, quiet } => {
-            train_cmd::run(train_cmd::TrainArgs { config, model, seed, out, adversary, threads, iterations, resume, init_from, quiet })
+            train_cmd::run(train_cmd::TrainArgs {
+                config,
+                model,
+                seed,
+                out,
+                adversary,
+                threads,
+                iterations,
+                resume,
+                init_from,
+                quiet,
+            })
         }
         Cmd::Eval { cmd, common } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
@@ -173,6 +169,24 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Ablate { o, c, ca, full, common } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             eval_cmd::run_ablate(o, c, ca, full, common)
+        }
+        Cmd::Play { policy, command, seconds, record, common } => {
+            trainer::nn::init_threads(1)?;
+            anyhow::ensure!(command.len() == 3, "--command takes three numbers v_x,v_y,w_z, got {}", command.len());
+            let s = play::run(&policy, [command[0], command[1], command[2]], seconds, record, &common.settings())?;
+            if common.json {
+                println!("{}", serde_json::to_string_pretty(&s)?);
+            } else {
+                let fall = s.fell_at_s.map_or("no fall".to_string(), |t| format!("FELL at {t:.2} s"));
+                println!(
+                    "command ({:.2}, {:.2}, {:.2}) for {} s: {fall}; mean (v_x, v_y, w_z) = ({:.2}, {:.2}, {:.2}); distance {:.2} m",
+                    s.command[0], s.command[1], s.command[2], s.seconds, s.mean_velocity[0], s.mean_velocity[1], s.mean_velocity[2], s.distance_m
+                );
+                if let Some(r) = &s.recording {
+                    println!("recording: {} (open it in Foxglove)", r.display());
+                }
+            }
+            Ok(())
         }
         Cmd::Bench(BenchCmd::Physics { model, steps, rounds, batch, no_testspeed }) => {
             bench::physics::run(&model, steps, rounds, batch, !no_testspeed)

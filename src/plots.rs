@@ -28,7 +28,9 @@ fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
 pub fn learning_curve(csv: &Path, png: &Path) -> Result<()> {
     register_font();
     let (header, rows) = trainer::metrics::read_csv(csv)?;
-    let col = |name: &str| header.iter().position(|h| h == name).with_context(|| format!("{} has no column {name}", csv.display()));
+    let col = |name: &str| {
+        header.iter().position(|h| h == name).with_context(|| format!("{} has no column {name}", csv.display()))
+    };
     let (it, ret, len, phase) = (col("iteration")?, col("mean_return")?, col("mean_length")?, col("phase")?);
     let episodes = col("episodes")?;
     let pts = |c: usize| -> Vec<(f64, f64)> {
@@ -67,7 +69,11 @@ fn draw_series(
     chart.configure_mesh().x_desc("iteration").label_style(("sans-serif", 16)).draw().map_err(err)?;
     // Phase-2 iterations (adversary learning, policy frozen) in grey.
     chart
-        .draw_series(shaded.iter().map(|&x| Rectangle::new([(x - 1.0, lo - pad), (x, hi + pad)], RGBColor(225, 225, 225).filled())))
+        .draw_series(
+            shaded
+                .iter()
+                .map(|&x| Rectangle::new([(x - 1.0, lo - pad), (x, hi + pad)], RGBColor(225, 225, 225).filled())),
+        )
         .map_err(err)?;
     chart.draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2))).map_err(err)?;
     Ok(())
@@ -95,7 +101,10 @@ fn color_of(t: f64, window: f64) -> RGBColor {
     ViridisRGB.get_color_normalized(t.clamp(0.0, window), 0.0, window)
 }
 
-fn draw_heatmaps<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, grids: &[(String, &crate::eval::push::PushGrid)]) -> Result<()>
+fn draw_heatmaps<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    grids: &[(String, &crate::eval::push::PushGrid)],
+) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
@@ -125,7 +134,10 @@ where
         chart
             .draw_series((0..g.cells()).map(|c| {
                 let [fx, fy] = g.force(c);
-                Rectangle::new([(fx - step / 2.0, fy - step / 2.0), (fx + step / 2.0, fy + step / 2.0)], color_of(g.t_fall[c], window).filled())
+                Rectangle::new(
+                    [(fx - step / 2.0, fy - step / 2.0), (fx + step / 2.0, fy + step / 2.0)],
+                    color_of(g.t_fall[c], window).filled(),
+                )
             }))
             .map_err(err)?;
         if n <= 13 {
@@ -134,7 +146,11 @@ where
                     let [fx, fy] = g.force(c);
                     let t = g.t_fall[c];
                     let ink = if t > 0.6 * window { BLACK } else { WHITE };
-                    Text::new(format!("{t:.1}"), (fx - step * 0.3, fy + step * 0.15), ("sans-serif", 11).into_font().color(&ink))
+                    Text::new(
+                        format!("{t:.1}"),
+                        (fx - step * 0.3, fy + step * 0.15),
+                        ("sans-serif", 11).into_font().color(&ink),
+                    )
                 }))
                 .map_err(err)?;
         }
@@ -147,7 +163,13 @@ where
         .y_label_area_size(40)
         .build_cartesian_2d(0.0..1.0, 0.0..window)
         .map_err(err)?;
-    cb.configure_mesh().disable_mesh().disable_x_axis().y_desc("time to fall (s)").label_style(("sans-serif", 14)).draw().map_err(err)?;
+    cb.configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_desc("time to fall (s)")
+        .label_style(("sans-serif", 14))
+        .draw()
+        .map_err(err)?;
     let k = 100;
     cb.draw_series((0..k).map(|i| {
         let (a, b) = (window * i as f64 / k as f64, window * (i + 1) as f64 / k as f64);

@@ -37,7 +37,11 @@ fn command_line() -> String {
 fn machine() -> String {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|t| t.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string()))
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
         .unwrap_or_else(|| "unknown CPU".into());
     format!("{} × {cpu}", std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
@@ -90,7 +94,12 @@ fn progress_line(log: &IterationLog, total: usize) -> String {
 
 pub fn run(args: TrainArgs) -> Result<()> {
     let (mut trainer, out, command, resumed_at) = if let Some(dir) = &args.resume {
-        if args.config.is_some() || args.model.is_some() || args.seed.is_some() || args.adversary || args.init_from.is_some() {
+        if args.config.is_some()
+            || args.model.is_some()
+            || args.seed.is_some()
+            || args.adversary
+            || args.init_from.is_some()
+        {
             bail!("--resume continues a run with its own saved config: drop --config/--model/--seed/--adversary/--init-from");
         }
         let side_path = checkpoint::latest(&dir.join("checkpoints"))?;
@@ -123,16 +132,29 @@ pub fn run(args: TrainArgs) -> Result<()> {
         cfg.validate().map_err(anyhow::Error::msg)?;
         trainer::nn::init_threads(crate::resolve_threads(cfg.run.threads))?;
         let out = args.out.clone().unwrap_or_else(|| {
-            PathBuf::from(format!("runs/{}{}-seed{}", cfg.env.model.name(), if args.adversary { "-adversary" } else { "" }, cfg.run.seed))
+            PathBuf::from(format!(
+                "runs/{}{}-seed{}",
+                cfg.env.model.name(),
+                if args.adversary { "-adversary" } else { "" },
+                cfg.run.seed
+            ))
         });
         if out.join("checkpoints/latest.json").exists() {
-            bail!("{} already holds a run: continue it with `topa train --resume {}` or choose another --out", out.display(), out.display());
+            bail!(
+                "{} already holds a run: continue it with `topa train --resume {}` or choose another --out",
+                out.display(),
+                out.display()
+            );
         }
         std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
         trainer::tensorfile::write_atomic(&out.join("config.toml"), toml::to_string_pretty(&cfg)?.as_bytes())?;
         let mut t = Trainer::new(cfg.clone(), topa_env(&cfg)?, args.adversary)?;
         if let Some(from) = &args.init_from {
-            let side_path = if from.is_dir() { checkpoint::latest(&from.join("checkpoints")).or_else(|_| checkpoint::latest(from))? } else { from.clone() };
+            let side_path = if from.is_dir() {
+                checkpoint::latest(&from.join("checkpoints")).or_else(|_| checkpoint::latest(from))?
+            } else {
+                from.clone()
+            };
             let (side, loaded) = checkpoint::read_sidecar(&side_path)?;
             checkpoint::init_policy_from(&mut t, &side, &loaded)?;
             eprintln!("policy initialised from {} (iteration {})", side_path.display(), side.iteration);
@@ -173,6 +195,11 @@ pub fn run(args: TrainArgs) -> Result<()> {
         started.elapsed().as_secs_f64(),
         out.join("policy.json").display()
     );
-    println!("metrics: {}, TensorBoard: {}, curve: {}", metrics.csv_path().display(), out.join("tb").display(), png.display());
+    println!(
+        "metrics: {}, TensorBoard: {}, curve: {}",
+        metrics.csv_path().display(),
+        out.join("tb").display(),
+        png.display()
+    );
     Ok(())
 }

@@ -71,8 +71,10 @@ pub fn run(policies: &[(String, PathBuf)], settings: &EvalSettings, extent: &Ext
         let mut runner = PolicyRunner::load(path, label(name))?;
         eprintln!("{}: {} (trained on the {} model)", label(name), path.display(), runner.trained_on().name());
         let tracking = tracking::run(&mut runner, settings, extent.tracking_window_s, extent.tracking_transient_s)?;
-        let push = push::run(&mut runner, settings, extent.push_range_n, extent.push_step_n, extent.push_window_s, [0.0; 3])?;
-        let noise = noise::run(&mut runner, settings, extent.noise_runs, extent.noise_seconds, extent.noise_interval_s)?;
+        let push =
+            push::run(&mut runner, settings, extent.push_range_n, extent.push_step_n, extent.push_window_s, [0.0; 3])?;
+        let noise =
+            noise::run(&mut runner, settings, extent.noise_runs, extent.noise_seconds, extent.noise_interval_s)?;
         results.push(PolicyResults {
             name: name.clone(),
             policy: path.clone(),

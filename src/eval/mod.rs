@@ -56,7 +56,10 @@ impl PolicyRunner {
         let policy = Policy::load(path)?;
         let m = &policy.meta;
         let Some(trained_on) = m.model else {
-            bail!("{}: the policy file does not say which model it was trained on, so it cannot be mapped", path.display())
+            bail!(
+                "{}: the policy file does not say which model it was trained on, so it cannot be mapped",
+                path.display()
+            )
         };
         if m.obs_dim != topa_env::env::OBS_DIM || m.action_dim != N_MOTORS {
             bail!(
@@ -83,7 +86,11 @@ impl PolicyRunner {
         c.timestep = s.timestep;
         let dec = self.policy.meta.policy_dt / s.timestep;
         if (dec - dec.round()).abs() > 1e-6 || dec.round() < 1.0 {
-            bail!("the evaluation timestep {} s does not divide the policy period {} s", s.timestep, self.policy.meta.policy_dt);
+            bail!(
+                "the evaluation timestep {} s does not divide the policy period {} s",
+                s.timestep,
+                self.policy.meta.policy_dt
+            );
         }
         c.decimation = dec.round() as usize;
         c.episode_length_s = 1e9; // experiments end runs themselves

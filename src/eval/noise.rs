@@ -62,13 +62,19 @@ impl Experiment for Noise {
 }
 
 /// The per-run noise streams: run `r` of level `l` always draws the same sequence for a given seed.
-fn stream(seed: u64, level: usize, run: usize) -> ChaCha8Rng {
+pub fn stream(seed: u64, level: usize, run: usize) -> ChaCha8Rng {
     let mut r = ChaCha8Rng::seed_from_u64(seed ^ 0x6e6f_6973_65);
     r.set_stream((level * 1_000_000 + run) as u64);
     r
 }
 
-pub fn run(runner: &mut PolicyRunner, settings: &EvalSettings, runs: usize, seconds: f64, interval_s: f64) -> Result<Vec<NoiseRow>> {
+pub fn run(
+    runner: &mut PolicyRunner,
+    settings: &EvalSettings,
+    runs: usize,
+    seconds: f64,
+    interval_s: f64,
+) -> Result<Vec<NoiseRow>> {
     let cfg = runner.eval_config(settings)?;
     let every = ((interval_s / cfg.policy_dt()).round() as usize).max(1);
     let sigma: Vec<(f64, f64)> = LEVELS.iter().flat_map(|&l| std::iter::repeat_n(l, runs)).collect();

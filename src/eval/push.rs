@@ -60,7 +60,14 @@ impl Experiment for Push {
     }
 }
 
-pub fn run(runner: &mut PolicyRunner, settings: &EvalSettings, range: f64, step: f64, window_s: f64, command: [f64; 3]) -> Result<PushGrid> {
+pub fn run(
+    runner: &mut PolicyRunner,
+    settings: &EvalSettings,
+    range: f64,
+    step: f64,
+    window_s: f64,
+    command: [f64; 3],
+) -> Result<PushGrid> {
     let cfg = runner.eval_config(settings)?;
     let ax = axis(range, step)?;
     let forces = cells(&ax);

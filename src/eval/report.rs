@@ -42,7 +42,10 @@ pub fn paper() -> Result<PaperTables> {
         for p in POLICIES {
             let a = row[p].as_array().context("tracking row")?;
             let num = |i: usize| a[i].as_float().or_else(|| a[i].as_integer().map(|x| x as f64)).unwrap_or(f64::NAN);
-            per.insert(p.to_string(), [num(0), num(1), num(2), num(3), if a[4].as_bool() == Some(true) { 1.0 } else { 0.0 }]);
+            per.insert(
+                p.to_string(),
+                [num(0), num(1), num(2), num(3), if a[4].as_bool() == Some(true) { 1.0 } else { 0.0 }],
+            );
         }
         t.tracking.insert(key.to_string(), per);
     }
@@ -50,7 +53,8 @@ pub fn paper() -> Result<PaperTables> {
         t.push_mean_t_fall.insert(p.clone(), x.as_float().unwrap_or(f64::NAN));
     }
     for (p, x) in v["command_noise"]["success_pct"].as_table().context("noise")? {
-        let vals = x.as_array().context("noise row")?.iter().map(|y| y.as_integer().map_or(f64::NAN, |i| i as f64)).collect();
+        let vals =
+            x.as_array().context("noise row")?.iter().map(|y| y.as_integer().map_or(f64::NAN, |i| i as f64)).collect();
         t.noise_success.insert(p.clone(), vals);
     }
     Ok(t)
@@ -104,9 +108,14 @@ pub fn push_markdown(results: &[(&str, &PushGrid)], paper: Option<&PaperTables>)
     for (name, g) in results {
         let p = paper.and_then(|t| t.push_mean_t_fall.get(*name)).map(|x| fmt(*x, 2));
         let standing = g.t_fall.iter().filter(|&&t| t >= g.window_s).count();
-        let _ = writeln!(s, "| {} | {} | {standing}/{} |", label(name), with_paper(fmt(g.mean_t_fall(), 2), p), g.cells());
+        let _ =
+            writeln!(s, "| {} | {} | {standing}/{} |", label(name), with_paper(fmt(g.mean_t_fall(), 2), p), g.cells());
     }
-    let _ = writeln!(s, "\nConstant torso force in the torso frame, window {} s. Cells: ours (paper).", results.first().map_or(10.0, |r| r.1.window_s));
+    let _ = writeln!(
+        s,
+        "\nConstant torso force in the torso frame, window {} s. Cells: ours (paper).",
+        results.first().map_or(10.0, |r| r.1.window_s)
+    );
     s
 }
 
@@ -115,11 +124,19 @@ pub fn noise_markdown(results: &[(&str, &[NoiseRow])], paper: Option<&PaperTable
     for (name, rows) in results {
         for (i, r) in rows.iter().enumerate() {
             let p = paper.and_then(|t| t.noise_success.get(*name)).and_then(|v| v.get(i)).map(|x| fmt(*x, 0));
-            let _ = writeln!(s, "| {} | {} | {} | {} |", label(name), r.sigma_v, r.sigma_wz, with_paper(fmt(r.success_pct, 0), p));
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} |",
+                label(name),
+                r.sigma_v,
+                r.sigma_wz,
+                with_paper(fmt(r.success_pct, 0), p)
+            );
         }
     }
     let runs = results.first().and_then(|r| r.1.first()).map_or(0, |r| r.runs);
-    let _ = writeln!(s, "\nWalk forward at 0.5 m/s with Gaussian command noise, {runs} runs per row. Cells: ours (paper).");
+    let _ =
+        writeln!(s, "\nWalk forward at 0.5 m/s with Gaussian command noise, {runs} runs per row. Cells: ours (paper).");
     s
 }
 

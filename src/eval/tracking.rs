@@ -49,9 +49,18 @@ pub struct TrackingAccumulator {
 }
 
 impl TrackingAccumulator {
-    pub fn add(&mut self, command: [f64; 3], lin_vel: [f64; 3], ang_vel: [f64; 3], motor_torque: &[f64], roll: f64, pitch: f64) {
+    pub fn add(
+        &mut self,
+        command: [f64; 3],
+        lin_vel: [f64; 3],
+        ang_vel: [f64; 3],
+        motor_torque: &[f64],
+        roll: f64,
+        pitch: f64,
+    ) {
         self.n += 1;
-        self.abs_err += ((lin_vel[0] - command[0]).abs() + (lin_vel[1] - command[1]).abs() + (ang_vel[2] - command[2]).abs()) / 3.0;
+        self.abs_err +=
+            ((lin_vel[0] - command[0]).abs() + (lin_vel[1] - command[1]).abs() + (ang_vel[2] - command[2]).abs()) / 3.0;
         self.torque += motor_torque.iter().map(|t| t.abs()).sum::<f64>();
         self.roll += roll;
         self.pitch += pitch;
@@ -89,17 +98,32 @@ impl Experiment for Tracking {
 }
 
 /// Runs the six commands (one env each, in parallel) for `window_s` each.
-pub fn run(runner: &mut PolicyRunner, settings: &EvalSettings, window_s: f64, transient_s: f64) -> Result<Vec<TrackingRow>> {
+pub fn run(
+    runner: &mut PolicyRunner,
+    settings: &EvalSettings,
+    window_s: f64,
+    transient_s: f64,
+) -> Result<Vec<TrackingRow>> {
     let cfg = runner.eval_config(settings)?;
     let commands: Vec<[f64; 3]> = COMMANDS.iter().map(|c| c.2).collect();
-    let mut exp = Tracking { commands: commands.clone(), transient_s, acc: vec![TrackingAccumulator::default(); commands.len()] };
+    let mut exp =
+        Tracking { commands: commands.clone(), transient_s, acc: vec![TrackingAccumulator::default(); commands.len()] };
     let fell = run_batch(runner, &cfg, settings, commands.len(), window_s, &mut exp, "")?;
     Ok(COMMANDS
         .iter()
         .enumerate()
         .map(|(i, (key, _, cmd))| {
             let (mae, mean_torque, mean_roll, mean_pitch) = exp.acc[i].finish();
-            TrackingRow { key: key.to_string(), command: *cmd, mae, mean_torque, mean_roll, mean_pitch, fell: fell[i].is_some(), fell_at: fell[i] }
+            TrackingRow {
+                key: key.to_string(),
+                command: *cmd,
+                mae,
+                mean_torque,
+                mean_roll,
+                mean_pitch,
+                fell: fell[i].is_some(),
+                fell_at: fell[i],
+            }
         })
         .collect())
 }

@@ -123,6 +123,12 @@ pub struct RewardConfig {
     pub soft_torque_limit: f64,
     /// Multiply each step's reward by the policy period (rewards per second, as legged_gym/rsl_rl do).
     pub scale_by_dt: bool,
+    /// Clip each step's total reward at zero from below (legged_gym's `only_positive_rewards`), so that early
+    /// in training, when penalties dominate, ending an episode early never pays. Not in the paper; off by default.
+    pub only_positive_rewards: bool,
+    /// Feet air time as printed in the paper, Σ|t_air − target| at touchdown ("abs"), or legged_gym's
+    /// Σ(t_air − target) ("signed"), which rewards long steps and penalises shuffling.
+    pub air_time_form: String,
 }
 
 impl Default for RewardConfig {
@@ -154,6 +160,8 @@ impl Default for RewardConfig {
             soft_joint_limit: 0.95,
             soft_torque_limit: 0.8,
             scale_by_dt: true,
+            only_positive_rewards: false,
+            air_time_form: "abs".into(),
         }
     }
 }
@@ -274,6 +282,12 @@ impl EnvConfig {
             ("rewards.soft_torque_limit", r.soft_torque_limit),
         ] {
             check_positive(name, v)?;
+        }
+        if !["abs", "signed"].contains(&r.air_time_form.as_str()) {
+            return Err(EnvError::Config(format!(
+                "rewards.air_time_form must be \"abs\" or \"signed\", got '{}'",
+                r.air_time_form
+            )));
         }
         check_range("domain_rand.friction_scale", self.domain_rand.friction_scale)?;
         check_range("domain_rand.mass_scale", self.domain_rand.mass_scale)?;

@@ -361,8 +361,9 @@ impl Task for TopaEnv {
             ang_vel: s.ang_vel,
             gravity: s.gravity,
             base_height: s.base_pos[2],
-            action: a,
-            last_action: self.last_action,
+            // The paper's a_t are position commands: the action rate is measured on the targets (rad).
+            action: a.map(|x| x * self.cfg.action_scale),
+            last_action: self.last_action.map(|x| x * self.cfg.action_scale),
             joint_pos: s.joint_pos,
             joint_dev: std::array::from_fn(|i| s.joint_pos[i] - self.nominal_joints[i]),
             joint_soft_limits: self.joint_soft_limits,

@@ -35,6 +35,7 @@ pub struct RewardInputs {
     pub gravity: [f64; 3],
     /// Torso height above the ground, m.
     pub base_height: f64,
+    /// This step's and the previous step's position commands, as offsets from the nominal pose (rad).
     pub action: [f64; N_MOTORS],
     pub last_action: [f64; N_MOTORS],
     /// Kinematic joint angles (hip roll … ankle pitch per leg), and their deviation from the nominal pose.
@@ -74,7 +75,9 @@ pub fn raw_terms(c: &RewardConfig, x: &RewardInputs) -> [f64; N_TERMS] {
         .sum();
     let torque: f64 = (0..N_MOTORS).map(|i| relu(x.motor_torque[i].abs() - x.torque_soft_limit[i])).sum();
     let slip: f64 = (0..2).filter(|&f| x.foot_contact[f]).map(|f| x.foot_speed[f]).sum();
-    let air: f64 = (0..2).filter(|&f| x.touchdown[f]).map(|f| (x.air_time[f] - c.air_time_target).abs()).sum();
+    let air_term =
+        |t: f64| if c.air_time_form == "signed" { t - c.air_time_target } else { (t - c.air_time_target).abs() };
+    let air: f64 = (0..2).filter(|&f| x.touchdown[f]).map(|f| air_term(x.air_time[f])).sum();
     [
         kernel(sq(x.command[0] - x.lin_vel[0]) + sq(x.command[1] - x.lin_vel[1]), c.sigma_v),
         kernel(sq(x.command[2] - x.ang_vel[2]), c.sigma_w),
@@ -122,7 +125,11 @@ pub fn weighted_terms(c: &RewardConfig, x: &RewardInputs, scale: f64, out: &mut 
         out[i] = w[i] * raw[i] * scale;
         total += out[i];
     }
-    total
+    if c.only_positive_rewards {
+        total.max(0.0)
+    } else {
+        total
+    }
 }
 
 #[cfg(test)]

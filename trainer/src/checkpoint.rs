@@ -234,7 +234,13 @@ pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
 /// straight to the adversary's first phase). The environments and the RNG stay fresh.
 pub fn init_policy_from(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
     if side.obs_dim != t.env.obs_dim() || side.action_dim != t.env.action_dim() {
-        bail!("the checkpoint's policy has {}→{} inputs/outputs, this task needs {}→{}", side.obs_dim, side.action_dim, t.env.obs_dim(), t.env.action_dim());
+        bail!(
+            "the checkpoint's policy has {}→{} inputs/outputs, this task needs {}→{}",
+            side.obs_dim,
+            side.action_dim,
+            t.env.obs_dim(),
+            t.env.action_dim()
+        );
     }
     if side.config.network != t.cfg.network {
         bail!("the checkpoint's network ({:?}) differs from this config's ({:?})", side.config.network, t.cfg.network);

@@ -43,10 +43,10 @@ macro_rules! multiversion {
     };
 }
 
-const LOG2E: f32 = std::f32::consts::LOG2_E;
-const LN2_HI: f32 = 0.693_145_751_953_125;
-const LN2_LO: f32 = 1.428_606_765_330_187_045e-6;
-const ROUND_MAGIC: f32 = 12_582_912.0; // 1.5·2²³
+pub(crate) const LOG2E: f32 = std::f32::consts::LOG2_E;
+pub(crate) const LN2_HI: f32 = 0.693_145_751_953_125;
+pub(crate) const LN2_LO: f32 = 1.428_606_765_330_187_045e-6;
+pub(crate) const ROUND_MAGIC: f32 = 12_582_912.0; // 1.5·2²³
 
 /// `expm1(z)` for `z <= 0` (callers clamp), accurate to a few ulp, written so that LLVM vectorises it: no
 /// branches, no libm calls. Range reduction `z = n·ln2 + r`, `|r| <= ln2/2`; `expm1(r)` by its Taylor series to
@@ -123,7 +123,7 @@ multiversion! {
                 match act {
                     Activation::Elu => {
                         for (((d, &g), &v), s) in dz_row.iter_mut().zip(dy_row).zip(y_row).zip(colsum.iter_mut()) {
-                            let e = if v > 0.0 { g } else { g * (v + 1.0) };
+                            let e = g * if v > 0.0 { 1.0 } else { v + 1.0 };
                             *d = e;
                             *s += e;
                         }
@@ -140,7 +140,7 @@ multiversion! {
                     let g = dy[r * dy_rs + j * dy_cs];
                     let v = y_row[j];
                     let e = match act {
-                        Activation::Elu => if v > 0.0 { g } else { g * (v + 1.0) },
+                        Activation::Elu => g * if v > 0.0 { 1.0 } else { v + 1.0 },
                         Activation::Identity => g,
                     };
                     dz_row[j] = e;
@@ -160,7 +160,9 @@ multiversion! {
             match act {
                 Activation::Elu => {
                     for ((d, &v), s) in g_row.iter_mut().zip(y_row).zip(colsum.iter_mut()) {
-                        let e = if v > 0.0 { *d } else { *d * (v + 1.0) };
+                        // Multiply by an exact 1 rather than skip the store: a conditional store becomes a masked
+                        // store, which is slow on AMD.
+                        let e = *d * if v > 0.0 { 1.0 } else { v + 1.0 };
                         *d = e;
                         *s += e;
                     }
@@ -170,18 +172,6 @@ multiversion! {
                         *s += *d;
                     }
                 }
-            }
-        }
-    }
-}
-
-multiversion! {
-    /// Column sums of a row-major block (`n` columns), added row by row in row order to `colsum`.
-    pub(crate) fn add_colsum_rows(x: &[f32], n: usize, colsum: &mut [f32]) {
-        let colsum = &mut colsum[..n];
-        for row in x.chunks_exact(n) {
-            for (s, &v) in colsum.iter_mut().zip(row) {
-                *s += v;
             }
         }
     }

@@ -3,52 +3,27 @@
 //! Parallelism and determinism. Work is split into *fixed* blocks whose size never depends on the thread count,
 //! and a reduction is never split across threads:
 //! * products with the batch as the row dimension (forward `X·Wᵀ`, backward `dZ·W`) are cut into blocks of
-//!   [`ROW_BLOCK`] rows; each block is one single-threaded `gemm` call followed by its element-wise epilogue
-//!   (bias + ELU, or ELU' + bias-gradient partial sums) while the block is still in cache;
+//!   [`ROW_BLOCK`] rows; each block is one single-threaded product (with bias + ELU fused in its epilogue in the
+//!   forward, followed by ELU' and the bias-gradient partial sums of the previous layer in the backward);
 //! * the weight gradient `dZᵀ·X` (a reduction over the batch) is cut into fixed chunks of [`WG_CHUNK`] batch
 //!   rows, one single-threaded product each, and the chunk results are added in chunk order;
 //! * bias gradients are summed per row block (rows in order), then the block partials are added in block order.
 //!
-//! Blocks are handed to the rayon global pool; whichever thread runs a block, it does the same arithmetic in the
-//! same order, so results are bit-identical for 1, 2, … threads.
+//! Blocks are handed to the rayon pool the caller runs in (the global pool unless inside `install`); whichever
+//! thread runs a block does the same arithmetic in the same order, so results are bit-identical for any thread
+//! count. The products' own summation order depends only on `k` (see [`super::gemm`]), so the forward of a row
+//! does not depend on the batch it is in either.
 
+use super::gemm::{self, Epilogue, MatRef, PackedB};
 use super::kernels;
 use super::Activation;
 use rayon::prelude::*;
 
-/// Rows per block in the batch-parallel products. Also the granularity of the bias-gradient partial sums.
+/// Rows per block in the batch-parallel products (a multiple of [`gemm::MR`]). Also the granularity of the
+/// bias-gradient partial sums.
 pub(crate) const ROW_BLOCK: usize = 768;
 /// Rows (batch samples) per chunk of the weight-gradient reduction.
 pub(crate) const WG_CHUNK: usize = 1536;
-
-/// A read-only strided matrix view: element `(i, j)` is at `ptr + i·rs + j·cs`.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct MatRef {
-    pub ptr: *const f32,
-    pub rs: isize,
-    pub cs: isize,
-}
-// SAFETY: a MatRef is only built from slices that outlive the parallel section that reads them, and is read-only.
-unsafe impl Send for MatRef {}
-unsafe impl Sync for MatRef {}
-
-impl MatRef {
-    pub fn row_major(data: &[f32], cols: usize) -> Self {
-        MatRef { ptr: data.as_ptr(), rs: cols as isize, cs: 1 }
-    }
-    /// The view starting at row `r`.
-    fn rows_from(self, r: usize) -> Self {
-        MatRef { ptr: self.ptr.wrapping_offset(r as isize * self.rs), ..self }
-    }
-    /// The view starting at column `c`.
-    fn cols_from(self, c: usize) -> Self {
-        MatRef { ptr: self.ptr.wrapping_offset(c as isize * self.cs), ..self }
-    }
-    /// The transposed view.
-    fn t(self) -> Self {
-        MatRef { ptr: self.ptr, rs: self.cs, cs: self.rs }
-    }
-}
 
 #[derive(Clone, Copy)]
 struct MutPtr(*mut f32);
@@ -56,45 +31,7 @@ struct MutPtr(*mut f32);
 unsafe impl Send for MutPtr {}
 unsafe impl Sync for MutPtr {}
 
-/// `dst[m×n] (row stride ld) = lhs[m×k] · rhs[k×n]`, single-threaded.
-///
-/// # Safety
-/// The views must cover `m×k` and `k×n` valid elements and `dst` `m` rows of `n` valid elements.
-#[inline]
-unsafe fn gemm_st(m: usize, n: usize, k: usize, dst: *mut f32, ld: usize, lhs: MatRef, rhs: MatRef) {
-    if m == 0 || n == 0 {
-        return;
-    }
-    if k == 0 {
-        for i in 0..m {
-            std::ptr::write_bytes(dst.add(i * ld), 0, n);
-        }
-        return;
-    }
-    gemm::gemm(
-        m,
-        n,
-        k,
-        dst,
-        1,
-        ld as isize,
-        false,
-        lhs.ptr,
-        lhs.cs,
-        lhs.rs,
-        rhs.ptr,
-        rhs.cs,
-        rhs.rs,
-        0.0,
-        1.0,
-        false,
-        false,
-        false,
-        gemm::Parallelism::None,
-    );
-}
-
-/// Runs `f(block)` for `block in 0..n_blocks` on the rayon global pool (inline when it has one thread).
+/// Runs `f(block)` for `block in 0..n_blocks` on the current rayon pool (inline when it has one thread).
 pub(crate) fn for_each_block(n_blocks: usize, f: impl Fn(usize) + Sync + Send) {
     if n_blocks <= 1 || rayon::current_num_threads() <= 1 {
         (0..n_blocks).for_each(f);
@@ -103,24 +40,46 @@ pub(crate) fn for_each_block(n_blocks: usize, f: impl Fn(usize) + Sync + Send) {
     }
 }
 
-/// Forward of one layer: `y[m×n] = act(x[m×k] · wᵀ + b)`, with `w` row-major `[n, k]`. `y.len() == m·n`.
-pub(crate) fn forward(x: MatRef, m: usize, k: usize, w: &[f32], b: &[f32], n: usize, act: Activation, y: &mut [f32]) {
+/// A vector of `len` floats that the caller will overwrite entirely.
+fn uninit_vec(len: usize) -> Vec<f32> {
+    let mut v = Vec::with_capacity(len);
+    // SAFETY: f32 has no invalid bit patterns; every caller writes all `len` elements before reading any.
+    #[allow(clippy::uninit_vec)]
+    unsafe {
+        v.set_len(len)
+    };
+    v
+}
+
+/// Forward of one layer: `y[m×n] = act(x[m×k] · wᵀ + b)`, with `w` row-major `[n, k]` and `y.len() == m·n`.
+/// `packed` receives the packed weights (a reusable buffer).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn forward(
+    x: MatRef,
+    m: usize,
+    k: usize,
+    w: &[f32],
+    b: &[f32],
+    n: usize,
+    act: Activation,
+    y: &mut [f32],
+    packed: &mut PackedB,
+) {
     assert_eq!(w.len(), n * k);
     assert_eq!(b.len(), n);
     assert_eq!(y.len(), m * n);
-    let wt = MatRef::row_major(w, k).t();
+    // SAFETY: `w` holds n×k floats and outlives `packed`'s use below.
+    unsafe { packed.pack(MatRef::row_major(w, k).t(), k, n) };
+    let packed = &*packed;
     let yp = MutPtr(y.as_mut_ptr());
-    let n_blocks = m.div_ceil(ROW_BLOCK);
-    for_each_block(n_blocks, |blk| {
+    for_each_block(m.div_ceil(ROW_BLOCK), |blk| {
         let yp = yp;
         let r0 = blk * ROW_BLOCK;
         let rows = ROW_BLOCK.min(m - r0);
-        // SAFETY: blocks are disjoint row ranges of `y`; `x` has m rows.
+        // SAFETY: blocks are disjoint row ranges of `y`; `x` has m rows of k.
         unsafe {
-            let yb = yp.0.add(r0 * n);
-            gemm_st(rows, n, k, yb, n, x.rows_from(r0), wt);
-            kernels::bias_act_rows(std::slice::from_raw_parts_mut(yb, rows * n), n, b, act);
-        }
+            gemm::matmul_packed(rows, x.rows_from(r0), packed, yp.0.add(r0 * n), n, false, Epilogue::BiasAct(b, act))
+        };
     });
 }
 
@@ -134,21 +93,22 @@ fn reduce_partials(partials: &[f32], n: usize) -> Vec<f32> {
 }
 
 /// Gradient with respect to the pre-activation of the *last* layer of a chain (or of a single layer):
-/// `dz = dy ⊙ act'(y)`, plus the bias gradient `db = Σ_rows dz`. `dy` is a strided `[m, n]` view.
+/// `dz = dy ⊙ act'(y)`, plus the bias gradient `db = Σ_rows dz`. `dy` is a strided `[m, n]` view with
+/// non-negative strides (candle's layouts).
 pub(crate) fn output_grad(dy: MatRef, y: &[f32], m: usize, n: usize, act: Activation) -> (Vec<f32>, Vec<f32>) {
-    let mut dz = Vec::<f32>::with_capacity(m * n);
+    assert!(dy.rs >= 0 && dy.cs >= 0, "negative strides");
+    let mut dz = uninit_vec(m * n);
     let n_blocks = m.div_ceil(ROW_BLOCK);
     let mut partials = vec![0.0f32; n_blocks * n];
     let dzp = MutPtr(dz.as_mut_ptr());
     let pp = MutPtr(partials.as_mut_ptr());
-    assert!(dy.rs >= 0 && dy.cs >= 0, "negative strides");
     let (rs, cs) = (dy.rs as usize, dy.cs as usize);
     for_each_block(n_blocks, |blk| {
         let (dzp, pp, dy) = (dzp, pp, dy);
         let r0 = blk * ROW_BLOCK;
         let rows = ROW_BLOCK.min(m - r0);
-        // SAFETY: disjoint row ranges of `dz` and disjoint partial slots; `dz` has capacity m·n; the `dy` view
-        // covers m×n elements with non-negative strides, so the block is the slice from its first element.
+        // SAFETY: disjoint row ranges of `dz` and disjoint partial slots; the `dy` view covers m×n elements with
+        // non-negative strides, so the block is the slice from its first element.
         unsafe {
             let dzb = std::slice::from_raw_parts_mut(dzp.0.add(r0 * n), rows * n);
             let part = std::slice::from_raw_parts_mut(pp.0.add(blk * n), n);
@@ -158,51 +118,65 @@ pub(crate) fn output_grad(dy: MatRef, y: &[f32], m: usize, n: usize, act: Activa
             kernels::act_backward_rows(dyb, rs, cs, yb, dzb, n, act, part);
         }
     });
-    // SAFETY: every element of dz was written by exactly one block.
-    unsafe { dz.set_len(m * n) };
     let db = reduce_partials(&partials, n);
     (dz, db)
 }
 
+/// Padding overhead of a `rows × cols` product on the `MR × NR` register tile.
+fn tile_waste(rows: usize, cols: usize) -> f64 {
+    (rows.div_ceil(gemm::MR) * gemm::MR * cols.div_ceil(gemm::NR) * gemm::NR) as f64 / (rows * cols).max(1) as f64
+}
+
 /// `dw[n×k] = dzᵀ · x`: dz row-major `[m, n]`, x a strided `[m, k]` view. The batch is cut into chunks of
-/// [`WG_CHUNK`] rows; each chunk's product `dz_cᵀ · x_c` is one single-threaded gemm (chunks run in parallel), and
-/// the chunk results are then added in chunk order. The chunking depends only on `m`, never on the thread count.
+/// [`WG_CHUNK`] rows; each chunk's product is one single-threaded product (chunks run in parallel), and the chunk
+/// results are then added in chunk order. The chunking depends only on `m`.
+///
+/// When the transposed product `dwᵀ = xᵀ · dz` fits the register tile better (the first layer: 42 inputs pad to
+/// 48 columns, but are exactly 7 tiles of 6 rows), that one is computed and transposed at the end (`n·k`
+/// elements, negligible next to the product). The choice depends only on the shape.
 pub(crate) fn weight_grad(dz: &[f32], x: MatRef, m: usize, n: usize, k: usize) -> Vec<f32> {
     let n_chunks = m.div_ceil(WG_CHUNK).max(1);
     let size = n * k;
-    // Chunk 0 writes straight into the result, chunks 1.. into partial buffers.
-    let mut dw = Vec::<f32>::with_capacity(size);
-    let mut partials = Vec::<f32>::with_capacity(size * (n_chunks - 1));
-    let dwp = MutPtr(dw.as_mut_ptr());
+    let transposed = tile_waste(k, n) < tile_waste(n, k);
+    // The product's operands and shape: C[rows × cols] = A · B.
+    let dzv = MatRef::row_major(dz, n);
+    let (rows, cols, a, b) = if transposed { (k, n, x.t(), dzv) } else { (n, k, dzv.t(), x) };
+    // Chunk 0 writes straight into the result buffer, chunks 1.. into partial buffers.
+    let mut acc = uninit_vec(size);
+    let mut partials = uninit_vec(size * (n_chunks - 1));
+    let accp = MutPtr(acc.as_mut_ptr());
     let pp = MutPtr(partials.as_mut_ptr());
-    let dzt = MatRef::row_major(dz, n).t();
     for_each_block(n_chunks, |c| {
-        let (dwp, pp) = (dwp, pp);
+        let (accp, pp) = (accp, pp);
         let r0 = c * WG_CHUNK;
-        let rows = WG_CHUNK.min(m - r0);
-        let dst = if c == 0 { dwp.0 } else { pp.0.wrapping_add((c - 1) * size) };
-        // SAFETY: each chunk writes its own n×k buffer; the views cover rows r0..r0+rows.
-        unsafe { gemm_st(n, k, rows, dst, k, dzt.cols_from(r0), x.rows_from(r0)) };
+        let len = WG_CHUNK.min(m - r0);
+        let dst = if c == 0 { accp.0 } else { pp.0.wrapping_add((c - 1) * size) };
+        // SAFETY: each chunk writes its own rows×cols buffer; the views cover batch rows r0..r0+len.
+        unsafe { gemm::matmul(rows, cols, len, a.cols_from(r0), b.rows_from(r0), dst, cols, false, Epilogue::None) };
     });
-    // SAFETY: every buffer was fully written by its chunk.
-    unsafe {
-        dw.set_len(size);
-        partials.set_len(size * (n_chunks - 1));
-    }
     if n_chunks > 1 {
         // Fixed-order sum, parallel over element ranges (element-wise, so thread-count invariant).
         let span = 16 * 1024;
-        let dwp = MutPtr(dw.as_mut_ptr());
-        for_each_block(size.div_ceil(span), |b| {
-            let dwp = dwp;
-            let lo = b * span;
+        let accp = MutPtr(acc.as_mut_ptr());
+        for_each_block(size.div_ceil(span), |blk| {
+            let accp = accp;
+            let lo = blk * span;
             let hi = size.min(lo + span);
-            // SAFETY: disjoint element ranges of dw.
-            let acc = unsafe { std::slice::from_raw_parts_mut(dwp.0.add(lo), hi - lo) };
+            // SAFETY: disjoint element ranges of acc.
+            let dst = unsafe { std::slice::from_raw_parts_mut(accp.0.add(lo), hi - lo) };
             for p in partials.chunks_exact(size) {
-                kernels::add_assign(acc, &p[lo..hi]);
+                kernels::add_assign(dst, &p[lo..hi]);
             }
         });
+    }
+    if !transposed {
+        return acc;
+    }
+    let mut dw = uninit_vec(size);
+    for i in 0..k {
+        for j in 0..n {
+            dw[j * k + i] = acc[i * n + j];
+        }
     }
     dw
 }
@@ -218,30 +192,34 @@ pub(crate) fn input_grad(
     k: usize,
     prev: Option<(&[f32], Activation)>,
 ) -> (Vec<f32>, Option<Vec<f32>>) {
-    let mut dx = Vec::<f32>::with_capacity(m * k);
+    assert_eq!(w.len(), n * k);
+    let mut dx = uninit_vec(m * k);
     let n_blocks = m.div_ceil(ROW_BLOCK);
     let mut partials = vec![0.0f32; if prev.is_some() { n_blocks * k } else { 0 }];
     let dxp = MutPtr(dx.as_mut_ptr());
     let pp = MutPtr(partials.as_mut_ptr());
     let lhs = MatRef::row_major(dz, n);
-    let rhs = MatRef::row_major(w, k);
+    let mut packed = PackedB::default();
+    // SAFETY: `w` holds n×k floats and outlives `packed`.
+    unsafe { packed.pack(MatRef::row_major(w, k), n, k) };
+    let packed = &packed;
     for_each_block(n_blocks, |blk| {
         let (dxp, pp) = (dxp, pp);
         let r0 = blk * ROW_BLOCK;
         let rows = ROW_BLOCK.min(m - r0);
-        // SAFETY: disjoint row ranges of dx (capacity m·k) and disjoint partial slots.
+        // SAFETY: disjoint row ranges of dx (m·k floats) and disjoint partial slots; y_prev is m×k.
         unsafe {
             let dxb = dxp.0.add(r0 * k);
-            gemm_st(rows, k, n, dxb, k, lhs.rows_from(r0), rhs);
+            gemm::matmul_packed(rows, lhs.rows_from(r0), packed, dxb, k, false, Epilogue::None);
             if let Some((y_prev, act)) = prev {
+                // A separate pass over the block (still in L2/L3): as fast as doing it in the kernel's epilogue
+                // (measured), and simpler.
                 let g = std::slice::from_raw_parts_mut(dxb, rows * k);
                 let part = std::slice::from_raw_parts_mut(pp.0.add(blk * k), k);
                 kernels::act_backward_inplace_rows(g, &y_prev[r0 * k..(r0 + rows) * k], k, act, part);
             }
         }
     });
-    // SAFETY: all rows written.
-    unsafe { dx.set_len(m * k) };
     let db = prev.map(|_| reduce_partials(&partials, k));
     (dx, db)
 }

@@ -30,6 +30,7 @@
 //! `gemm` crate's own parallel mode (used by candle's matmul elsewhere in the trainer) splits only output tiles,
 //! and its reduction order does not depend on the thread count either; the tests check both.
 
+mod gemm;
 mod kernels;
 mod layer;
 mod ops;
@@ -115,10 +116,11 @@ pub struct Mlp {
 }
 
 /// Reusable buffers for [`Mlp::forward_inference`].
-#[derive(Default, Debug, Clone)]
+#[derive(Default, Debug)]
 pub struct MlpScratch {
     a: Vec<f32>,
     b: Vec<f32>,
+    packed: gemm::PackedB,
 }
 
 impl Mlp {
@@ -202,7 +204,7 @@ impl Mlp {
     pub fn forward_inference(&self, x: &[f32], rows: usize, out: &mut Vec<f32>, scratch: &mut MlpScratch) {
         let n_layers = self.layers.len();
         assert_eq!(x.len(), rows * self.in_dim(), "nn::Mlp::forward_inference: input size");
-        let MlpScratch { a, b } = scratch;
+        let MlpScratch { a, b, packed } = scratch;
         let mut k = self.in_dim();
         for (l, layer) in self.layers.iter().enumerate() {
             let n = layer.out_dim();
@@ -224,7 +226,7 @@ impl Mlp {
             } else if dst.len() < rows * n {
                 dst.resize(rows * n, 0.0);
             }
-            layer::forward(layer::MatRef::row_major(src, k), rows, k, w, bias, n, act, &mut dst[..rows * n]);
+            layer::forward(gemm::MatRef::row_major(src, k), rows, k, w, bias, n, act, &mut dst[..rows * n], packed);
             k = n;
         }
     }
@@ -247,10 +249,9 @@ pub fn init_threads(n: usize) -> Result<()> {
     match rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
         Ok(()) => Ok(()),
         Err(_) if rayon::current_num_threads() == n => Ok(()),
-        Err(e) => bail!(
-            "nn::init_threads({n}): rayon global pool already has {} threads: {e}",
-            rayon::current_num_threads()
-        ),
+        Err(e) => {
+            bail!("nn::init_threads({n}): rayon global pool already has {} threads: {e}", rayon::current_num_threads())
+        }
     }
 }
 

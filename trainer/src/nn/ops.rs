@@ -16,7 +16,8 @@
 //! ELU derivative of layer `l` and sums its bias gradient right after the `dZ·W` product, block by block, while
 //! the block is in cache.
 
-use super::layer::{self, MatRef};
+use super::gemm::{MatRef, PackedB};
+use super::layer;
 use super::Activation;
 use candle_core::{bail, CpuStorage, CustomOp3, Device, Layout, Result, Shape, Storage, Tensor};
 use std::sync::{Arc, Mutex};
@@ -112,7 +113,7 @@ impl CustomOp3 for LinearOp {
         unsafe {
             y.set_len(m * n)
         };
-        layer::forward(x, m, k, w, b, n, self.act, &mut y);
+        layer::forward(x, m, k, w, b, n, self.act, &mut y, &mut PackedB::default());
         Ok((CpuStorage::F32(y), Shape::from((m, n))))
     }
 
@@ -241,12 +242,12 @@ impl CustomOp3 for ChainOp {
             debug_assert_eq!(rows, m);
             k = cols;
             check_layer(k, l2.dims()[0], *l2.dims().get(1).unwrap_or(&0), n)?;
-            layer::forward(x, m, k, w, b, n, self.act(), &mut y);
+            layer::forward(x, m, k, w, b, n, self.act(), &mut y, &mut PackedB::default());
         } else {
             let h = self.ctx.hidden(self.l - 1)?;
             k = h.len() / m.max(1);
             check_layer(k, l2.dims()[0], *l2.dims().get(1).unwrap_or(&0), n)?;
-            layer::forward(MatRef::row_major(&h, k), m, k, w, b, n, self.act(), &mut y);
+            layer::forward(MatRef::row_major(&h, k), m, k, w, b, n, self.act(), &mut y, &mut PackedB::default());
         }
         if self.is_last() {
             Ok((CpuStorage::F32(y), Shape::from((m, n))))

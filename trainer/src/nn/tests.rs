@@ -173,7 +173,7 @@ fn finite_differences() {
         let g = grads.get(&v).unwrap().flatten_all().unwrap().to_vec1::<f32>().unwrap();
         let base = v.as_tensor().flatten_all().unwrap().to_vec1::<f32>().unwrap();
         for i in 0..base.len() {
-            let mut eval = |d: f32| -> f64 {
+            let eval = |d: f32| -> f64 {
                 let mut p = base.clone();
                 p[i] += d;
                 v.set(&Tensor::from_vec(p, v.shape(), &Device::Cpu).unwrap()).unwrap();
@@ -260,11 +260,11 @@ fn gemm_parallel_mode_is_thread_count_invariant() {
     let (m, n, k) = (256, 512, 6144);
     let a: Vec<f32> = rand_tensor(k, m, 1.0, 80).flatten_all().unwrap().to_vec1().unwrap();
     let b: Vec<f32> = rand_tensor(k, n, 1.0, 81).flatten_all().unwrap().to_vec1().unwrap();
-    let run = |par: gemm::Parallelism| -> Vec<u32> {
+    let run = |par: ::gemm::Parallelism| -> Vec<u32> {
         let mut c = vec![0.0f32; m * n];
         // SAFETY: the buffers hold m×k (column-major lhs), k×n and m×n elements.
         unsafe {
-            gemm::gemm(
+            ::gemm::gemm(
                 m,
                 n,
                 k,
@@ -288,9 +288,57 @@ fn gemm_parallel_mode_is_thread_count_invariant() {
         };
         c.iter().map(|v| v.to_bits()).collect()
     };
-    let one = run(gemm::Parallelism::None);
+    let one = run(::gemm::Parallelism::None);
     for t in [2, 3] {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap();
-        assert!(one == pool.install(|| run(gemm::Parallelism::Rayon(t))), "gemm with {t} threads differs");
+        assert!(one == pool.install(|| run(::gemm::Parallelism::Rayon(t))), "gemm with {t} threads differs");
     }
+}
+
+/// Timing of the layer primitives on the paper's shapes (single thread). Not a test:
+/// `cargo test --release -p trainer nn::tests::bench_layer_ops -- --ignored --nocapture` (`NN_GEMM=crate` for the
+/// `gemm` crate).
+#[test]
+#[ignore]
+fn bench_layer_ops() {
+    use super::gemm::{MatRef, PackedB};
+    use std::time::Instant;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let m = 6144;
+    let best = |f: &mut dyn FnMut()| -> f64 {
+        let mut b = f64::MAX;
+        for _ in 0..30 {
+            let t = Instant::now();
+            f();
+            b = b.min(t.elapsed().as_secs_f64());
+        }
+        b
+    };
+    pool.install(|| {
+        let mut total = 0.0;
+        for (k, n) in [(42usize, 512usize), (512, 256), (256, 128), (128, 10)] {
+            let x: Vec<f32> = rand_tensor(m, k, 2.0, 1).flatten_all().unwrap().to_vec1().unwrap();
+            let w: Vec<f32> = rand_tensor(n, k, 0.1, 2).flatten_all().unwrap().to_vec1().unwrap();
+            let b = vec![0.01f32; n];
+            let mut y = vec![0.0f32; m * n];
+            let mut pb = PackedB::default();
+            let flops = 2.0 * (m * n * k) as f64;
+            let xv = MatRef::row_major(&x, k);
+            let tf = best(&mut || layer::forward(xv, m, k, &w, &b, n, Activation::Elu, &mut y, &mut pb));
+            let dz = y.clone();
+            let yprev: Vec<f32> = rand_tensor(m, k, 2.0, 3).flatten_all().unwrap().to_vec1().unwrap();
+            let ti = best(&mut || {
+                std::hint::black_box(layer::input_grad(&dz, &w, m, n, k, Some((&yprev, Activation::Elu))));
+            });
+            let tw = best(&mut || {
+                std::hint::black_box(layer::weight_grad(&dz, xv, m, n, k));
+            });
+            total += tf * 3.0 + ti * 3.0 + tw * 3.0;
+            println!(
+                "{k:>3}->{n:<3} forward {:6.2} ms {:5.1} GF/s | input_grad {:6.2} ms {:5.1} GF/s | weight_grad {:6.2} ms {:5.1} GF/s",
+                tf * 1e3, flops / tf / 1e9, ti * 1e3, flops / ti / 1e9, tw * 1e3, flops / tw / 1e9
+            );
+        }
+        println!("3 x (fwd + dX + dW) over the layers: {:.1} ms", total * 1e3);
+    });
 }

@@ -1,0 +1,119 @@
+//! `topa play`: one policy, one command, on the closed model (evaluation settings), optionally recorded to MCAP
+//! for Foxglove. The recording ends cleanly when the robot falls.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use serde::Serialize;
+use serde_json::json;
+use topa_env::robot::{self, N_MOTORS};
+use topa_env::{assets, ModelKind, Task, TopaEnv};
+
+use crate::eval::{EvalSettings, PolicyRunner};
+use crate::recording::Recorder;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct PlaySummary {
+    pub command: [f64; 3],
+    pub seconds: f64,
+    pub fell: bool,
+    pub fell_at_s: Option<f64>,
+    /// Horizontal distance travelled, m.
+    pub distance_m: f64,
+    /// Mean measured (v_x, v_y, w_z) in the torso frame.
+    pub mean_velocity: [f64; 3],
+    pub recording: Option<PathBuf>,
+}
+
+fn named(names: &[String], v: &[f64]) -> serde_json::Value {
+    serde_json::Value::Object(names.iter().zip(v).map(|(n, x)| (n.clone(), json!(x))).collect())
+}
+
+fn record_step(rec: &mut Recorder, env: &TopaEnv, t: f64) -> Result<()> {
+    let s = env.robot_state();
+    let joints = robot::joint_names();
+    let motors: Vec<String> = robot::actuator_names(ModelKind::Closed);
+    rec.write_transforms(env.data(), t)?;
+    rec.write_plot("/joints", t, json!({"position": named(&joints, &s.joint_pos), "velocity": named(&joints, &s.joint_vel), "torque": named(&joints, &s.joint_torque)}))?;
+    rec.write_plot("/motors", t, json!({"position": named(&motors, &s.motor_pos), "velocity": named(&motors, &s.motor_vel), "torque": named(&motors, &s.motor_torque)}))?;
+    rec.write_plot(
+        "/base",
+        t,
+        json!({"height": s.base_pos[2], "roll": s.roll, "pitch": s.pitch, "yaw": s.yaw,
+               "v_x": s.lin_vel[0], "v_y": s.lin_vel[1], "v_z": s.lin_vel[2], "w_x": s.ang_vel[0], "w_y": s.ang_vel[1], "w_z": s.ang_vel[2]}),
+    )?;
+    let c = env.command();
+    rec.write_plot("/command", t, json!({"v_x": c[0], "v_y": c[1], "w_z": c[2], "measured_v_x": s.lin_vel[0], "measured_v_y": s.lin_vel[1], "measured_w_z": s.ang_vel[2]}))?;
+    let contact = s.foot_contact();
+    rec.write_plot("/contacts", t, json!({"left_force_n": s.foot_force[0], "right_force_n": s.foot_force[1], "left_contact": contact[0], "right_contact": contact[1]}))?;
+    let names: Vec<String> = env.term_names().iter().map(|n| n.to_string()).collect();
+    rec.write_plot("/rewards", t, named(&names, env.terms()))?;
+    Ok(())
+}
+
+pub fn run(
+    policy: &std::path::Path,
+    command: [f64; 3],
+    seconds: f64,
+    record: Option<PathBuf>,
+    settings: &EvalSettings,
+) -> Result<PlaySummary> {
+    let mut runner = PolicyRunner::load(policy, "policy")?;
+    let cfg = runner.eval_config(settings)?;
+    let mut env =
+        TopaEnv::new(assets::load_model(ModelKind::Closed)?, std::sync::Arc::new(cfg.clone()), settings.seed, 0)?;
+    let mut obs = vec![0.0f32; env.obs_dim()];
+    env.reset(&mut obs)?;
+    env.set_command_override(Some([0.0; 3]));
+    let mut rec = match &record {
+        Some(p) => Some(Recorder::create(p, env.data().model())?),
+        None => None,
+    };
+    if let Some(r) = rec.as_mut() {
+        r.write_scene(env.data().model(), 0.0)?;
+        record_step(r, &env, 0.0)?;
+    }
+    let dt = cfg.policy_dt();
+    let settle = (settings.settle_s / dt).round() as usize;
+    let steps = settle + (seconds / dt).round() as usize;
+    let start = env.robot_state().base_pos;
+    let (mut sum, mut n) = ([0.0; 3], 0usize);
+    let mut fell_at = None;
+    let mut actions = Vec::with_capacity(N_MOTORS);
+    for k in 0..steps {
+        if k == settle {
+            env.set_command_override(Some(command));
+        }
+        runner.act(&obs, &mut actions);
+        let out = env.step(&actions, &mut obs);
+        let t = (k + 1) as f64 * dt;
+        if let Some(r) = rec.as_mut() {
+            record_step(r, &env, t)?;
+        }
+        if out.done {
+            fell_at = Some(t);
+            break;
+        }
+        if k >= settle {
+            let s = env.robot_state();
+            for (acc, v) in sum.iter_mut().zip([s.lin_vel[0], s.lin_vel[1], s.ang_vel[2]]) {
+                *acc += v;
+            }
+            n += 1;
+        }
+    }
+    let end = env.robot_state().base_pos;
+    let recording = match rec.as_mut() {
+        Some(r) => Some(r.finish()?),
+        None => None,
+    };
+    Ok(PlaySummary {
+        command,
+        seconds,
+        fell: fell_at.is_some(),
+        fell_at_s: fell_at,
+        distance_m: (end[0] - start[0]).hypot(end[1] - start[1]),
+        mean_velocity: sum.map(|x| x / n.max(1) as f64),
+        recording,
+    })
+}

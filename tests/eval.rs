@@ -1,0 +1,292 @@
+//! Sim2sim evaluation: metrics on known trajectories, scripted policies with known behaviour, the push grid's
+//! forces and frame, seeded noise runs, open-policy mapping, and MCAP recordings read back.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use candle_core::{Device, Tensor};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use topa::eval::{noise, push, tracking, EvalSettings, PolicyRunner};
+use topa_env::robot::{self, ModelKind, N_MOTORS};
+use topa_env::{assets, EnvConfig, Task, TopaEnv};
+use trainer::nn::Mlp;
+use trainer::normalizer::Normalizer;
+use trainer::policy_file::{self, PolicyMeta, Provenance};
+use trainer::TrainConfig;
+
+fn tempdir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("topa-eval-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A policy file whose action is the constant `action` (zero weights, output bias = action), trained "on" `model`.
+fn constant_policy(dir: &Path, name: &str, model: ModelKind, action: [f32; N_MOTORS]) -> PathBuf {
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let mlp = Mlp::new(&[42, 8, 10], &mut rng).unwrap();
+    for l in &mlp.layers {
+        l.weight.set(&l.weight.as_tensor().zeros_like().unwrap()).unwrap();
+    }
+    mlp.layers[1].bias.set(&Tensor::new(&action, &Device::Cpu).unwrap()).unwrap();
+    let mut cfg = TrainConfig::default();
+    cfg.env.model = model;
+    let meta = PolicyMeta {
+        format: policy_file::FORMAT.into(),
+        version: policy_file::VERSION,
+        model: Some(model),
+        obs_dim: 42,
+        action_dim: 10,
+        hidden: vec![8],
+        activation: "elu".into(),
+        action_scale: cfg.env.action_scale,
+        action_clip: cfg.env.action_clip,
+        policy_dt: cfg.env.policy_dt(),
+        weights: String::new(),
+        weights_crc32: 0,
+        provenance: Provenance {
+            command: "test".into(),
+            config: cfg,
+            seed: 0,
+            iterations: 0,
+            samples: 0,
+            wall_time_s: 0.0,
+            with_adversary: false,
+            trained_on: "test".into(),
+        },
+    };
+    policy_file::save(&dir.join(name), &mlp, &Normalizer::new(42, None), meta).unwrap()
+}
+
+/// The action that sends the closed model's keyframe targets (nominal pose + gravity compensation): it stands.
+fn hold_action() -> [f32; N_MOTORS] {
+    let m = assets::load_model(ModelKind::Closed).unwrap();
+    let key = m.id(mujoco_sys::ObjType::Key, robot::STAND_KEY).unwrap();
+    let nominal = robot::nominal_motors();
+    let scale = EnvConfig::default().action_scale;
+    std::array::from_fn(|i| ((m.key_ctrl(key)[i] - nominal[i]) / scale) as f32)
+}
+
+/// Knee motors to the top of their range, ankles following: the robot folds down.
+fn crouch_action() -> [f32; N_MOTORS] {
+    let mut a = [0.0f32; N_MOTORS];
+    for leg in 0..2 {
+        a[leg * 5 + robot::KNEE] = 6.0;
+        a[leg * 5 + robot::ANKLE] = 6.0;
+    }
+    a
+}
+
+fn quick() -> EvalSettings {
+    EvalSettings { settle_s: 1.0, ..EvalSettings::default() }
+}
+
+#[test]
+fn tracking_metrics_on_hand_made_trajectories() {
+    let mut acc = tracking::TrackingAccumulator::default();
+    // Commanded (0.5, 0, 0); measured v_x alternates 0.4 / 0.6, v_y 0.1, w_z −0.2; torques sum to 10 and 30.
+    for k in 0..100 {
+        let vx = if k % 2 == 0 { 0.4 } else { 0.6 };
+        let tau = if k % 2 == 0 { [1.0; 10] } else { [-3.0; 10] };
+        acc.add([0.5, 0.0, 0.0], [vx, 0.1, 0.0], [0.0, 0.0, -0.2], &tau, 0.02, -0.04);
+    }
+    let (mae, torque, roll, pitch) = acc.finish();
+    assert!((mae - (0.1 + 0.1 + 0.2) / 3.0).abs() < 1e-12, "{mae}");
+    assert!((torque - 20.0).abs() < 1e-12);
+    assert!((roll - 0.02).abs() < 1e-12 && (pitch + 0.04).abs() < 1e-12);
+    assert!(tracking::TrackingAccumulator::default().finish().0.is_nan());
+}
+
+#[test]
+fn scripted_policies_behave_as_known() {
+    let dir = tempdir("scripted");
+    // Zero action = the bare nominal motor targets: without gravity compensation the knees sag a little and the
+    // robot stands, leaning forward by the sag, tracking nothing.
+    let zero = constant_policy(&dir, "zero", ModelKind::Closed, [0.0; N_MOTORS]);
+    let mut r = PolicyRunner::load(&zero, "zero").unwrap();
+    let rows = tracking::run(&mut r, &quick(), 4.0, 1.0).unwrap();
+    for row in &rows {
+        assert!(!row.fell && row.mean_pitch > 0.03 && row.mean_pitch < 0.2, "zero action stands, leaning: {row:?}");
+    }
+    // Folding the knees to their stop drops the torso: every command ends in a fall.
+    let crouch = constant_policy(&dir, "crouch", ModelKind::Closed, crouch_action());
+    let mut r = PolicyRunner::load(&crouch, "crouch").unwrap();
+    let rows = tracking::run(&mut r, &quick(), 4.0, 1.0).unwrap();
+    assert!(rows.iter().all(|row| row.fell), "a crouching policy falls: {rows:?}");
+    // Holding the keyframe targets stands for the whole window on every command, without tracking it.
+    let hold = constant_policy(&dir, "hold", ModelKind::Closed, hold_action());
+    let mut r = PolicyRunner::load(&hold, "hold").unwrap();
+    let rows = tracking::run(&mut r, &quick(), 4.0, 1.0).unwrap();
+    for row in &rows {
+        assert!(!row.fell, "{row:?}");
+        let expected = (row.command[0].abs() + row.command[1].abs() + row.command[2].abs()) / 3.0;
+        assert!((row.mae - expected).abs() < 0.02, "standing still, MAE = mean |command|: {row:?}");
+        assert!(row.mean_roll.abs() < 0.01 && row.mean_pitch.abs() < 0.02);
+        assert!(row.mean_torque > 5.0, "holding the pose takes torque: {row:?}");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn push_grid_has_the_papers_cells_and_a_standing_robot_scores_the_window() {
+    let ax = push::axis(30.0, 5.0).unwrap();
+    assert_eq!(ax.len(), 13);
+    assert_eq!((ax[0], ax[6], ax[12]), (-30.0, 0.0, 30.0));
+    let cells = push::cells(&ax);
+    assert_eq!(cells.len(), 169);
+    assert_eq!(cells[0], [-30.0, -30.0]);
+    assert_eq!(cells[1], [-25.0, -30.0], "F_x varies fastest");
+    assert_eq!(cells[168], [30.0, 30.0]);
+    assert!(push::axis(30.0, 7.0).is_err());
+    let dir = tempdir("push");
+    let hold = constant_policy(&dir, "hold", ModelKind::Closed, hold_action());
+    let mut r = PolicyRunner::load(&hold, "hold").unwrap();
+    // No force at all (range 0): nothing falls, so t_fall is the whole window.
+    let g = push::run(&mut r, &quick(), 0.0, 5.0, 3.0, [0.0; 3]).unwrap();
+    assert_eq!(g.t_fall, vec![3.0]);
+    assert_eq!(g.mean_t_fall(), 3.0);
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_forward_push_accelerates_the_torso_along_its_own_x() {
+    let mut cfg = EnvConfig::default().for_evaluation();
+    cfg.episode_length_s = 100.0;
+    let mut env = TopaEnv::new(assets::load_model(ModelKind::Closed).unwrap(), Arc::new(cfg), 1, 0).unwrap();
+    let mut obs = vec![0.0f32; 42];
+    env.reset(&mut obs).unwrap();
+    // Turn the robot to face world +y (yaw 90°), so torso +x and world +x differ.
+    let b = env.indices().base_qpos;
+    let (c, s) = ((std::f64::consts::FRAC_PI_4).cos(), (std::f64::consts::FRAC_PI_4).sin());
+    env.data_mut().qpos_mut()[b + 3..b + 7].copy_from_slice(&[c, 0.0, 0.0, s]);
+    env.data_mut().qvel_mut().iter_mut().for_each(|v| *v = 0.0);
+    env.refresh(&mut obs).unwrap();
+    let mut p = *env.perturbation();
+    p.torso_force_local = [30.0, 0.0, 0.0];
+    env.set_perturbation_struct(p);
+    let hold = hold_action();
+    for _ in 0..10 {
+        env.step(&hold, &mut obs);
+    }
+    let d = env.data();
+    let v_world = [d.qvel()[env.indices().base_dof], d.qvel()[env.indices().base_dof + 1]];
+    let s = env.robot_state();
+    assert!(s.lin_vel[0] > 0.05, "torso-frame forward velocity {}", s.lin_vel[0]);
+    assert!(
+        v_world[1] > 0.05 && v_world[1] > 5.0 * v_world[0].abs(),
+        "world velocity {v_world:?} should point along +y"
+    );
+}
+
+#[test]
+fn noise_runs_are_seeded_and_success_is_counted_right() {
+    assert_eq!(noise::success_pct(&[None, Some(1.0), None, None]), (3, 75.0));
+    assert_eq!(noise::success_pct(&[Some(0.0), Some(2.0)]), (0, 0.0));
+    // Each run's noise stream is fixed by (seed, level, run) and differs between runs and seeds.
+    let draw = |seed, l, r| {
+        let mut g = noise::stream(seed, l, r);
+        (0..6).map(|_| trainer::actor_critic::standard_normal(&mut g)).collect::<Vec<_>>()
+    };
+    assert_eq!(draw(5, 1, 2), draw(5, 1, 2));
+    assert_ne!(draw(5, 1, 2), draw(5, 1, 3));
+    assert_ne!(draw(5, 1, 2), draw(6, 1, 2));
+    let dir = tempdir("noise");
+    // Through the whole pipeline: a robot that holds its pose (ignoring the commands) never falls, one that
+    // crouches always does.
+    let hold = constant_policy(&dir, "hold", ModelKind::Closed, hold_action());
+    let zero = constant_policy(&dir, "crouch", ModelKind::Closed, crouch_action());
+    let run = |p: &Path, seed: u64| {
+        let mut r = PolicyRunner::load(p, "p").unwrap();
+        noise::run(&mut r, &EvalSettings { seed, ..quick() }, 3, 2.0, 0.5).unwrap()
+    };
+    let rows = run(&hold, 5);
+    assert_eq!(rows.len(), 4);
+    assert!(rows.iter().all(|r| r.runs == 3 && r.successes == 3 && r.success_pct == 100.0), "{rows:?}");
+    assert_eq!(rows, run(&hold, 5));
+    assert!(run(&zero, 5).iter().all(|r| r.successes == 0 && r.success_pct == 0.0));
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn open_policies_are_mapped_through_m() {
+    // joint → motor → joint is exact to 1e-12.
+    let q: [f64; N_MOTORS] = std::array::from_fn(|i| 0.37 * i as f64 - 1.1);
+    let back = robot::motor_to_joint(&robot::joint_to_motor(&q));
+    assert!(q.iter().zip(back).all(|(a, b)| (a - b).abs() < 1e-12));
+    // An open-model policy's joint-space action comes out in motor space: a_m = M⁻¹ a_j.
+    let dir = tempdir("open");
+    let aj: [f32; N_MOTORS] = std::array::from_fn(|i| 0.1 * (i as f32 + 1.0));
+    let p = constant_policy(&dir, "open", ModelKind::Open, aj);
+    let mut r = PolicyRunner::load(&p, "O").unwrap();
+    assert_eq!(r.trained_on(), ModelKind::Open);
+    let mut out = Vec::new();
+    r.act(&[0.0; 42], &mut out);
+    let back = robot::motor_to_joint(&std::array::from_fn::<f32, N_MOTORS, _>(|i| out[i]));
+    for i in 0..N_MOTORS {
+        assert!((back[i] - aj[i]).abs() < 1e-6, "{i}: {} vs {}", back[i], aj[i]);
+    }
+    assert!((out[robot::ANKLE] - (aj[robot::KNEE] + aj[robot::ANKLE])).abs() < 1e-6, "ankle motor = knee + ankle");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_policy_file_that_cannot_drive_topa_is_refused() {
+    let dir = tempdir("refuse");
+    let p = constant_policy(&dir, "ok", ModelKind::Closed, [0.0; N_MOTORS]);
+    let mut meta: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+    meta["model"] = serde_json::Value::Null;
+    std::fs::write(&p, serde_json::to_string(&meta).unwrap()).unwrap();
+    let err = PolicyRunner::load(&p, "x").err().unwrap().to_string();
+    assert!(err.contains("does not say which model"), "{err}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn mcap_recording_reads_back_with_the_expected_channels() {
+    let dir = tempdir("mcap");
+    let hold = constant_policy(&dir, "hold", ModelKind::Closed, hold_action());
+    let path = dir.join("run.mcap");
+    let s = topa::play::run(
+        &hold,
+        [0.3, 0.0, 0.0],
+        1.0,
+        Some(path.clone()),
+        &EvalSettings { settle_s: 0.5, ..Default::default() },
+    )
+    .unwrap();
+    assert!(!s.fell);
+    let bytes = std::fs::read(&path).unwrap();
+    let mut counts = std::collections::BTreeMap::<String, usize>::new();
+    let mut schemas = std::collections::BTreeMap::<String, String>::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        *counts.entry(m.channel.topic.clone()).or_default() += 1;
+        if let Some(sc) = &m.channel.schema {
+            schemas.insert(m.channel.topic.clone(), sc.name.clone());
+        }
+        let _: serde_json::Value = serde_json::from_slice(&m.data).expect("JSON messages");
+    }
+    let steps = 1 + ((0.5 + 1.0) / 0.02_f64).round() as usize;
+    let nbody = assets::load_model(ModelKind::Closed).unwrap().nbody();
+    assert_eq!(schemas["/tf"], "foxglove.FrameTransform");
+    assert_eq!(schemas["/scene"], "foxglove.SceneUpdate");
+    assert_eq!(counts["/scene"], 1);
+    assert_eq!(counts["/tf"], steps * (nbody - 1));
+    for topic in ["/joints", "/motors", "/base", "/command", "/contacts", "/rewards"] {
+        assert_eq!(counts[topic], steps, "{topic}");
+    }
+    // A run that ends in a fall is still a complete, readable file.
+    let zero = constant_policy(&dir, "crouch", ModelKind::Closed, crouch_action());
+    let fall_path = dir.join("fall.mcap");
+    let s = topa::play::run(&zero, [0.0; 3], 10.0, Some(fall_path.clone()), &EvalSettings::default()).unwrap();
+    assert!(s.fell);
+    let bytes = std::fs::read(&fall_path).unwrap();
+    let n = mcap::MessageStream::new(&bytes).unwrap().count();
+    assert!(n > 0);
+    assert!(
+        mcap::read::Summary::read(&bytes).unwrap().is_some(),
+        "the file has its summary section (finished cleanly)"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -1,0 +1,617 @@
+//! Single-threaded f32 matrix product for the layers: an AVX2/FMA 6×16 register-tile kernel with packed `B`,
+//! `A` read in place when its rows are contiguous, and the layer's bias + activation applied to the accumulators
+//! before they are stored. Callers parallelise over independent blocks of `C` (see [`super::layer`]).
+//!
+//! Why not the `gemm` crate (candle's matmul) everywhere: it is as fast per call on these shapes, but it repacks
+//! `B` (the weights) on every call, allocates its packing buffers on every call, and cannot fuse the epilogue. Here
+//! the weights are packed once per layer call and shared by all row blocks and threads, packing buffers are
+//! thread-local and only grow, and bias + ELU run on the accumulators in registers. The `gemm` crate remains the
+//! path on CPUs without AVX2/FMA.
+//!
+//! Summation order: every element of `C` is a sum over `k` taken in blocks of [`KC`], each block an FMA chain in
+//! `k` order. It does not depend on how `C` is cut into blocks or on the thread count.
+
+use super::kernels;
+use super::Activation;
+use std::cell::RefCell;
+use std::sync::OnceLock;
+
+/// Whether products use this module's AVX2/FMA kernel: when the CPU has AVX2 and FMA, unless the environment
+/// variable `NN_GEMM=crate` asks for the `gemm` crate (a diagnostic switch for A/B timing; read once).
+pub(crate) fn own_kernel() -> bool {
+    static OWN: OnceLock<bool> = OnceLock::new();
+    *OWN.get_or_init(|| kernels::has_avx2_fma() && std::env::var("NN_GEMM").map_or(true, |v| v != "crate"))
+}
+
+/// Rows of the register tile.
+pub(crate) const MR: usize = 6;
+/// Columns of the register tile (two 8-lane vectors).
+pub(crate) const NR: usize = 16;
+/// Depth of one pass over `k` (a packed `B` panel, KC × NR floats = 16 KiB, stays in L1).
+pub(crate) const KC: usize = 512;
+/// Rows of `A` per cache block (a multiple of [`MR`]; MC × KC floats = 96 KiB in L2).
+pub(crate) const MC: usize = 96;
+
+/// A read-only strided matrix view: element `(i, j)` is at `ptr + i·rs + j·cs`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MatRef {
+    pub ptr: *const f32,
+    pub rs: isize,
+    pub cs: isize,
+}
+// SAFETY: a MatRef is only built from buffers that outlive the parallel section reading them, and is read-only.
+unsafe impl Send for MatRef {}
+unsafe impl Sync for MatRef {}
+
+impl MatRef {
+    pub fn row_major(data: &[f32], cols: usize) -> Self {
+        MatRef { ptr: data.as_ptr(), rs: cols as isize, cs: 1 }
+    }
+    /// The view starting at row `r`.
+    pub fn rows_from(self, r: usize) -> Self {
+        MatRef { ptr: self.ptr.wrapping_offset(r as isize * self.rs), ..self }
+    }
+    /// The view starting at column `c`.
+    pub fn cols_from(self, c: usize) -> Self {
+        MatRef { ptr: self.ptr.wrapping_offset(c as isize * self.cs), ..self }
+    }
+    /// The transposed view.
+    pub fn t(self) -> Self {
+        MatRef { ptr: self.ptr, rs: self.cs, cs: self.rs }
+    }
+    /// # Safety
+    /// `(i, j)` must be inside the viewed matrix.
+    #[inline(always)]
+    unsafe fn at(self, i: usize, j: usize) -> f32 {
+        *self.ptr.offset(i as isize * self.rs + j as isize * self.cs)
+    }
+}
+
+#[repr(C, align(64))]
+#[derive(Clone, Copy)]
+struct Line([f32; 16]);
+
+/// A grow-only, cache-line aligned f32 buffer.
+#[derive(Default)]
+pub(crate) struct AlignedBuf(Vec<Line>);
+
+impl AlignedBuf {
+    fn get(&mut self, n: usize) -> *mut f32 {
+        let lines = n.div_ceil(16);
+        if self.0.len() < lines {
+            self.0.resize(lines, Line([0.0; 16]));
+        }
+        self.0.as_mut_ptr() as *mut f32
+    }
+}
+
+impl std::fmt::Debug for AlignedBuf {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "AlignedBuf({} floats)", self.0.len() * 16)
+    }
+}
+
+/// The right operand `B[k×n]` of a product, packed for the kernel (k-block after k-block; in each, `n/NR`
+/// panels of `kc × NR`, zero-padded) — or, when the `gemm` crate does the products, just the view.
+#[derive(Default, Debug)]
+pub(crate) struct PackedB {
+    buf: AlignedBuf,
+    k: usize,
+    n: usize,
+    /// The source view (fallback path only). Valid as long as the caller keeps the source alive.
+    src: Option<(usize, isize, isize)>,
+}
+// SAFETY: the packed data is owned; the source pointer (fallback) is read-only and outlived by its users.
+unsafe impl Send for PackedB {}
+unsafe impl Sync for PackedB {}
+
+impl PackedB {
+    fn panels(&self) -> usize {
+        self.n.div_ceil(NR)
+    }
+
+    /// Packs `b` (`k × n`), reusing the buffer.
+    ///
+    /// # Safety
+    /// `b` must view `k × n` valid elements; on the fallback path they must stay alive while `self` is used.
+    pub unsafe fn pack(&mut self, b: MatRef, k: usize, n: usize) {
+        self.k = k;
+        self.n = n;
+        if !own_kernel() {
+            self.src = Some((b.ptr as usize, b.rs, b.cs));
+            return;
+        }
+        self.src = None;
+        let panels = self.panels();
+        let dst = self.buf.get(panels * k * NR);
+        let mut pc = 0;
+        while pc < k {
+            let kc = KC.min(k - pc);
+            pack_b_block(kc, n, b.rows_from(pc), dst.add(pc * panels * NR));
+            pc += kc;
+        }
+    }
+
+    fn block(&self, pc: usize) -> *const f32 {
+        (self.buf.0.as_ptr() as *const f32).wrapping_add(pc * self.panels() * NR)
+    }
+}
+
+/// Packs `B[0..kc, 0..n]` into `n/NR` panels of `kc × NR` (zero-padded columns).
+unsafe fn pack_b_block(kc: usize, n: usize, b: MatRef, dst: *mut f32) {
+    let panels = n.div_ceil(NR);
+    if b.cs == 1 {
+        // Row-major source (activations, W in `dZ·W`): read each row once, in order, and deal it to the panels.
+        let tail = n % NR;
+        for p in 0..kc {
+            let src = b.ptr.offset(p as isize * b.rs);
+            for jp in 0..n / NR {
+                std::ptr::copy_nonoverlapping(src.add(jp * NR), dst.add(jp * kc * NR + p * NR), NR);
+            }
+            if tail != 0 {
+                let d = dst.add((panels - 1) * kc * NR + p * NR);
+                std::ptr::copy_nonoverlapping(src.add(n - tail), d, tail);
+                std::ptr::write_bytes(d.add(tail), 0, NR - tail);
+            }
+        }
+        return;
+    }
+    for jp in 0..panels {
+        let j0 = jp * NR;
+        let w = NR.min(n - j0);
+        let d = dst.add(jp * kc * NR);
+        if b.rs == 1 {
+            // Column-major source (Wᵀ in the forward): walk each column contiguously.
+            for jj in 0..NR {
+                if jj < w {
+                    let col = b.ptr.offset((j0 + jj) as isize * b.cs);
+                    for p in 0..kc {
+                        *d.add(p * NR + jj) = *col.add(p);
+                    }
+                } else {
+                    for p in 0..kc {
+                        *d.add(p * NR + jj) = 0.0;
+                    }
+                }
+            }
+        } else {
+            for p in 0..kc {
+                for jj in 0..NR {
+                    *d.add(p * NR + jj) = if jj < w { b.at(p, j0 + jj) } else { 0.0 };
+                }
+            }
+        }
+    }
+}
+
+/// Packs `A[0..mc, 0..kc]` into panels of `MR` rows (`kc × MR` each, rows past `mc` zero).
+unsafe fn pack_a_block(mc: usize, kc: usize, a: MatRef, dst: *mut f32) {
+    for ip in 0..mc.div_ceil(MR) {
+        let i0 = ip * MR;
+        let h = MR.min(mc - i0);
+        let d = dst.add(ip * kc * MR);
+        if a.rs == 1 && h == MR {
+            // Aᵀ row-major (the weight gradient's dZᵀ): MR consecutive floats per k.
+            for p in 0..kc {
+                std::ptr::copy_nonoverlapping(a.ptr.offset(p as isize * a.cs + i0 as isize), d.add(p * MR), MR);
+            }
+        } else {
+            for p in 0..kc {
+                for ii in 0..MR {
+                    *d.add(p * MR + ii) = if ii < h { a.at(i0 + ii, p) } else { 0.0 };
+                }
+            }
+        }
+    }
+}
+
+/// What to do with a finished tile before storing it.
+#[derive(Clone, Copy)]
+pub(crate) enum Epilogue<'a> {
+    None,
+    /// `act(c + bias)`, bias indexed by column.
+    BiasAct(&'a [f32], Activation),
+}
+
+thread_local! {
+    static A_BUF: RefCell<AlignedBuf> = RefCell::new(AlignedBuf::default());
+    static B_BUF: RefCell<PackedB> = RefCell::new(PackedB::default());
+}
+
+/// `C[m×n] (row stride ldc) = A[m×k]·B[k×n]` (`+ C` when `accumulate`), then the epilogue; single-threaded.
+/// `B` is given packed.
+///
+/// # Safety
+/// `a` must view `m × k` valid elements, `c` must point to `m` rows of `n` writable elements with row stride
+/// `ldc`, and `b` must have been packed with this `k` and `n` from a source that is still alive.
+pub(crate) unsafe fn matmul_packed(
+    m: usize,
+    a: MatRef,
+    b: &PackedB,
+    c: *mut f32,
+    ldc: usize,
+    accumulate: bool,
+    epi: Epilogue,
+) {
+    let (k, n) = (b.k, b.n);
+    if m == 0 || n == 0 {
+        return;
+    }
+    #[cfg(target_arch = "x86_64")]
+    if b.src.is_none() {
+        // Packed, hence our kernel (AVX2/FMA present).
+        avx2::matmul(m, n, k, a, b, c, ldc, accumulate, epi);
+        return;
+    }
+    let (ptr, rs, cs) = b.src.expect("PackedB::pack was called");
+    fallback(m, n, k, a, MatRef { ptr: ptr as *const f32, rs, cs }, c, ldc, accumulate, epi);
+}
+
+/// As [`matmul_packed`] with `B` given as a view, packed into a thread-local buffer.
+///
+/// # Safety
+/// As [`matmul_packed`], `b` viewing `k × n` valid elements.
+#[allow(clippy::too_many_arguments)]
+pub(crate) unsafe fn matmul(
+    m: usize,
+    n: usize,
+    k: usize,
+    a: MatRef,
+    b: MatRef,
+    c: *mut f32,
+    ldc: usize,
+    accumulate: bool,
+    epi: Epilogue,
+) {
+    B_BUF.with(|buf| {
+        let mut pb = buf.borrow_mut();
+        pb.pack(b, k, n);
+        matmul_packed(m, a, &pb, c, ldc, accumulate, epi);
+    });
+}
+
+/// The `gemm` crate, then the epilogue as a separate pass.
+#[allow(clippy::too_many_arguments)]
+unsafe fn fallback(
+    m: usize,
+    n: usize,
+    k: usize,
+    a: MatRef,
+    b: MatRef,
+    c: *mut f32,
+    ldc: usize,
+    accumulate: bool,
+    epi: Epilogue,
+) {
+    if k == 0 {
+        if !accumulate {
+            for i in 0..m {
+                std::ptr::write_bytes(c.add(i * ldc), 0, n);
+            }
+        }
+    } else {
+        gemm::gemm(
+            m,
+            n,
+            k,
+            c,
+            1,
+            ldc as isize,
+            accumulate,
+            a.ptr,
+            a.cs,
+            a.rs,
+            b.ptr,
+            b.cs,
+            b.rs,
+            1.0,
+            1.0,
+            false,
+            false,
+            false,
+            gemm::Parallelism::None,
+        );
+    }
+    if let Epilogue::BiasAct(bias, act) = epi {
+        for i in 0..m {
+            kernels::bias_act_rows(std::slice::from_raw_parts_mut(c.add(i * ldc), n), n, bias, act);
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::*;
+    use std::arch::x86_64::*;
+
+    /// ELU on 8 lanes: the same operations, in the same order, as [`kernels::elu`] (bit-identical results).
+    #[inline(always)]
+    unsafe fn elu8(z: __m256) -> __m256 {
+        let zc = _mm256_max_ps(_mm256_min_ps(z, _mm256_setzero_ps()), _mm256_set1_ps(-87.0));
+        let magic = _mm256_set1_ps(kernels::ROUND_MAGIC);
+        let t = _mm256_fmadd_ps(zc, _mm256_set1_ps(kernels::LOG2E), magic);
+        let n = _mm256_sub_ps(t, magic);
+        let r = _mm256_fnmadd_ps(n, _mm256_set1_ps(kernels::LN2_HI), zc);
+        let r = _mm256_fnmadd_ps(n, _mm256_set1_ps(kernels::LN2_LO), r);
+        let mut p = _mm256_set1_ps(1.0 / 5040.0);
+        p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(1.0 / 720.0));
+        p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(1.0 / 120.0));
+        p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(1.0 / 24.0));
+        p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(1.0 / 6.0));
+        p = _mm256_fmadd_ps(p, r, _mm256_set1_ps(0.5));
+        let em1 = _mm256_fmadd_ps(p, _mm256_mul_ps(r, r), r);
+        let two_n = _mm256_castsi256_ps(_mm256_slli_epi32::<23>(_mm256_add_epi32(
+            _mm256_castps_si256(t),
+            _mm256_set1_epi32(127),
+        )));
+        let e = _mm256_fmadd_ps(two_n, em1, _mm256_sub_ps(two_n, _mm256_set1_ps(1.0)));
+        let pos = _mm256_cmp_ps::<_CMP_GT_OQ>(z, _mm256_setzero_ps());
+        _mm256_blendv_ps(e, z, pos)
+    }
+
+    /// A tile's share of an [`Epilogue`] (given on the last k-block only).
+    #[derive(Clone, Copy)]
+    pub(super) enum TileEpi<'a> {
+        None,
+        /// Bias for the tile's 16 columns (zero-padded) and the activation.
+        BiasAct(&'a [f32; NR], Activation),
+    }
+
+    /// The 6×16 kernel: `C[0..mr, 0..nr] (+)= A·B` over `kc`, with `A(ii, p)` at `a + ii·ars + p·acs` (rows
+    /// past `mr` read row `mr − 1`, results discarded) and `B` a packed `kc × 16` panel; then the epilogue.
+    #[target_feature(enable = "avx2,fma")]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn kernel(
+        kc: usize,
+        a: *const f32,
+        ars: isize,
+        acs: isize,
+        b: *const f32,
+        c: *mut f32,
+        ldc: usize,
+        mr: usize,
+        nr: usize,
+        accumulate: bool,
+        epi: TileEpi,
+    ) {
+        let z = _mm256_setzero_ps();
+        let mut acc = [[z; 2]; MR];
+        let row = |ii: usize| a.offset(ii.min(mr - 1) as isize * ars);
+        let (mut p0, mut p1, mut p2, mut p3, mut p4, mut p5) = (row(0), row(1), row(2), row(3), row(4), row(5));
+        let mut bp = b;
+        for _ in 0..kc {
+            let b0 = _mm256_load_ps(bp);
+            let b1 = _mm256_load_ps(bp.add(8));
+            let a0 = _mm256_broadcast_ss(&*p0);
+            acc[0][0] = _mm256_fmadd_ps(a0, b0, acc[0][0]);
+            acc[0][1] = _mm256_fmadd_ps(a0, b1, acc[0][1]);
+            let a1 = _mm256_broadcast_ss(&*p1);
+            acc[1][0] = _mm256_fmadd_ps(a1, b0, acc[1][0]);
+            acc[1][1] = _mm256_fmadd_ps(a1, b1, acc[1][1]);
+            let a2 = _mm256_broadcast_ss(&*p2);
+            acc[2][0] = _mm256_fmadd_ps(a2, b0, acc[2][0]);
+            acc[2][1] = _mm256_fmadd_ps(a2, b1, acc[2][1]);
+            let a3 = _mm256_broadcast_ss(&*p3);
+            acc[3][0] = _mm256_fmadd_ps(a3, b0, acc[3][0]);
+            acc[3][1] = _mm256_fmadd_ps(a3, b1, acc[3][1]);
+            let a4 = _mm256_broadcast_ss(&*p4);
+            acc[4][0] = _mm256_fmadd_ps(a4, b0, acc[4][0]);
+            acc[4][1] = _mm256_fmadd_ps(a4, b1, acc[4][1]);
+            let a5 = _mm256_broadcast_ss(&*p5);
+            acc[5][0] = _mm256_fmadd_ps(a5, b0, acc[5][0]);
+            acc[5][1] = _mm256_fmadd_ps(a5, b1, acc[5][1]);
+            p0 = p0.offset(acs);
+            p1 = p1.offset(acs);
+            p2 = p2.offset(acs);
+            p3 = p3.offset(acs);
+            p4 = p4.offset(acs);
+            p5 = p5.offset(acs);
+            bp = bp.add(NR);
+        }
+        let full = mr == MR && nr == NR;
+        if accumulate {
+            // Partial tiles go through the full-tile path on a copy, below.
+            if full {
+                for (i, r) in acc.iter_mut().enumerate() {
+                    let cp = c.add(i * ldc);
+                    r[0] = _mm256_add_ps(_mm256_loadu_ps(cp), r[0]);
+                    r[1] = _mm256_add_ps(_mm256_loadu_ps(cp.add(8)), r[1]);
+                }
+            } else {
+                let mut tile = [0.0f32; MR * NR];
+                for i in 0..mr {
+                    for j in 0..nr {
+                        tile[i * NR + j] = *c.add(i * ldc + j);
+                    }
+                }
+                for (i, r) in acc.iter_mut().enumerate() {
+                    r[0] = _mm256_add_ps(_mm256_loadu_ps(tile.as_ptr().add(i * NR)), r[0]);
+                    r[1] = _mm256_add_ps(_mm256_loadu_ps(tile.as_ptr().add(i * NR + 8)), r[1]);
+                }
+            }
+        }
+        match epi {
+            TileEpi::None => {}
+            TileEpi::BiasAct(bias, act) => {
+                let bv0 = _mm256_loadu_ps(bias.as_ptr());
+                let bv1 = _mm256_loadu_ps(bias.as_ptr().add(8));
+                for r in acc.iter_mut() {
+                    r[0] = _mm256_add_ps(r[0], bv0);
+                    r[1] = _mm256_add_ps(r[1], bv1);
+                    if act == Activation::Elu {
+                        r[0] = elu8(r[0]);
+                        r[1] = elu8(r[1]);
+                    }
+                }
+            }
+        }
+        if full {
+            for (i, r) in acc.iter().enumerate() {
+                let cp = c.add(i * ldc);
+                _mm256_storeu_ps(cp, r[0]);
+                _mm256_storeu_ps(cp.add(8), r[1]);
+            }
+        } else {
+            let mut tile = [0.0f32; MR * NR];
+            for (i, r) in acc.iter().enumerate() {
+                _mm256_storeu_ps(tile.as_mut_ptr().add(i * NR), r[0]);
+                _mm256_storeu_ps(tile.as_mut_ptr().add(i * NR + 8), r[1]);
+            }
+            for i in 0..mr {
+                std::ptr::copy_nonoverlapping(tile.as_ptr().add(i * NR), c.add(i * ldc), nr);
+            }
+        }
+    }
+
+    /// Blocked product: for each block of [`MC`] rows of `A`, for each k-block, for each panel of `B`, for each
+    /// `MR` rows: the kernel. `A` is read in place when its rows are contiguous (cs = 1), else packed per block.
+    #[target_feature(enable = "avx2,fma")]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) unsafe fn matmul(
+        m: usize,
+        n: usize,
+        k: usize,
+        a: MatRef,
+        b: &PackedB,
+        c: *mut f32,
+        ldc: usize,
+        accumulate: bool,
+        epi: Epilogue,
+    ) {
+        let panels = n.div_ceil(NR);
+        if k == 0 {
+            for i in 0..m {
+                if !accumulate {
+                    std::ptr::write_bytes(c.add(i * ldc), 0, n);
+                }
+            }
+            // Finish as the portable path does (nothing to multiply, nothing to add: only bias + act).
+            if let Epilogue::BiasAct(bias, act) = epi {
+                for i in 0..m {
+                    kernels::bias_act_rows(std::slice::from_raw_parts_mut(c.add(i * ldc), n), n, bias, act);
+                }
+            }
+            return;
+        }
+        let direct = a.cs == 1;
+        A_BUF.with(|abuf| {
+            let mut abuf = abuf.borrow_mut();
+            let mut ic = 0;
+            while ic < m {
+                let mc = MC.min(m - ic);
+                let mut pc = 0;
+                while pc < k {
+                    let kc = KC.min(k - pc);
+                    let last = pc + kc == k;
+                    let acc = accumulate || pc > 0;
+                    let bpk = b.block(pc);
+                    let ablk = a.rows_from(ic).cols_from(pc);
+                    let ap = if direct {
+                        std::ptr::null_mut()
+                    } else {
+                        let ap = abuf.get(mc.div_ceil(MR) * kc * MR);
+                        pack_a_block(mc, kc, ablk, ap);
+                        ap
+                    };
+                    for jp in 0..panels {
+                        let nr = NR.min(n - jp * NR);
+                        let mut bias16 = [0.0f32; NR];
+                        if let Epilogue::BiasAct(bias, _) = epi {
+                            bias16[..nr].copy_from_slice(&bias[jp * NR..jp * NR + nr]);
+                        }
+                        let tile_epi = match epi {
+                            Epilogue::BiasAct(_, act) if last => TileEpi::BiasAct(&bias16, act),
+                            _ => TileEpi::None,
+                        };
+                        let bpanel = bpk.add(jp * kc * NR);
+                        for ip in 0..mc.div_ceil(MR) {
+                            let mr = MR.min(mc - ip * MR);
+                            let cp = c.add((ic + ip * MR) * ldc + jp * NR);
+                            if direct {
+                                let arow = ablk.rows_from(ip * MR).ptr;
+                                kernel(kc, arow, a.rs, 1, bpanel, cp, ldc, mr, nr, acc, tile_epi);
+                            } else {
+                                let apanel = ap.add(ip * kc * MR);
+                                kernel(kc, apanel, 1, MR as isize, bpanel, cp, ldc, mr, nr, acc, tile_epi);
+                            }
+                        }
+                    }
+                    pc += kc;
+                }
+                ic += mc;
+            }
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn naive(m: usize, n: usize, k: usize, a: MatRef, b: MatRef) -> Vec<f64> {
+        let mut c = vec![0.0f64; m * n];
+        for i in 0..m {
+            for j in 0..n {
+                for p in 0..k {
+                    c[i * n + j] += unsafe { a.at(i, p) as f64 * b.at(p, j) as f64 };
+                }
+            }
+        }
+        c
+    }
+
+    #[test]
+    fn matches_naive_for_all_layouts_and_edges() {
+        for &(m, n, k) in &[(1, 1, 1), (7, 5, 3), (13, 17, 300), (130, 33, 513), (6, 16, 256), (121, 48, 42)] {
+            let av: Vec<f32> = (0..m * k).map(|i| ((i * 37 % 101) as f32 - 50.0) / 50.0).collect();
+            let bv: Vec<f32> = (0..k * n).map(|i| ((i * 53 % 97) as f32 - 48.0) / 48.0).collect();
+            let cv: Vec<f32> = (0..m * n).map(|i| ((i * 11 % 13) as f32 - 6.0) / 6.0).collect();
+            for (at, bt) in [(false, false), (true, false), (false, true), (true, true)] {
+                let a = if at { MatRef { ptr: av.as_ptr(), rs: 1, cs: m as isize } } else { MatRef::row_major(&av, k) };
+                let b = if bt { MatRef { ptr: bv.as_ptr(), rs: 1, cs: k as isize } } else { MatRef::row_major(&bv, n) };
+                let want = naive(m, n, k, a, b);
+                for accumulate in [false, true] {
+                    // Written into a wider C (ldc = n + 3) to check the row stride and that nothing spills.
+                    let ldc = n + 3;
+                    let mut c = vec![7.0f32; m * ldc];
+                    for i in 0..m {
+                        c[i * ldc..i * ldc + n].copy_from_slice(&cv[i * n..(i + 1) * n]);
+                    }
+                    unsafe { matmul(m, n, k, a, b, c.as_mut_ptr(), ldc, accumulate, Epilogue::None) };
+                    for i in 0..m {
+                        for j in 0..n {
+                            let w = want[i * n + j] + if accumulate { cv[i * n + j] as f64 } else { 0.0 };
+                            let got = c[i * ldc + j] as f64;
+                            assert!(
+                                (got - w).abs() <= 1e-5 * (1.0 + w.abs()) * (k as f64).sqrt(),
+                                "{m}x{n}x{k} {at} {bt}"
+                            );
+                        }
+                        assert!(c[i * ldc + n..i * ldc + ldc].iter().all(|&v| v == 7.0));
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn epilogue_matches_separate_pass() {
+        let (m, n, k) = (25, 37, 70);
+        let av: Vec<f32> = (0..m * k).map(|i| ((i * 37 % 101) as f32 - 50.0) / 20.0).collect();
+        let bv: Vec<f32> = (0..k * n).map(|i| ((i * 53 % 97) as f32 - 48.0) / 48.0).collect();
+        let bias: Vec<f32> = (0..n).map(|j| (j as f32 - 18.0) / 9.0).collect();
+        let (a, b) = (MatRef::row_major(&av, k), MatRef::row_major(&bv, n));
+        for act in [Activation::Elu, Activation::Identity] {
+            let mut fused = vec![0.0f32; m * n];
+            let mut plain = vec![0.0f32; m * n];
+            unsafe {
+                matmul(m, n, k, a, b, fused.as_mut_ptr(), n, false, Epilogue::BiasAct(&bias, act));
+                matmul(m, n, k, a, b, plain.as_mut_ptr(), n, false, Epilogue::None);
+            }
+            kernels::bias_act_rows(&mut plain, n, &bias, act);
+            let fb: Vec<u32> = fused.iter().map(|v| v.to_bits()).collect();
+            let pb: Vec<u32> = plain.iter().map(|v| v.to_bits()).collect();
+            assert_eq!(fb, pb, "{act:?}");
+        }
+    }
+}
