@@ -107,7 +107,7 @@ impl Agent {
         let (od, ad) = (r.obs_dim, r.act_dim);
         let mut stats = UpdateStats::default();
         let mut idx: Vec<usize> = (0..n).collect();
-        let mut buf = Minibatch::with_capacity(mb, od, ad);
+        let mut buf = Batch::with_capacity(mb, od, ad);
         for _ in 0..self.ppo.epochs {
             // Fisher–Yates with our stream, so the minibatches are part of the seeded run.
             for i in (1..n).rev() {
@@ -135,38 +135,67 @@ impl Agent {
         Ok(stats)
     }
 
-    fn minibatch_step(&mut self, b: &Minibatch, old_std: &[f32], stats: &mut UpdateStats) -> Result<()> {
+    fn minibatch_step(&mut self, b: &Batch, old_std: &[f32], stats: &mut UpdateStats) -> Result<()> {
+        let rows = b.rows;
+        let obs = Tensor::from_slice(&b.obs, (rows, self.ac.obs_dim), &Device::Cpu)?;
+        let mean = self.ac.actor.forward(&obs)?;
+        // Adaptive learning rate from the KL between the rollout policy and the current one (rsl_rl's rule).
+        let new_mean = mean.flatten_all()?.to_vec1::<f32>()?;
+        let new_std = self.ac.log_std.as_tensor().exp()?.to_vec1::<f32>()?;
+        let kl = actor_critic::mean_kl(&b.means, old_std, &new_mean, &new_std);
+        if self.ppo.adaptive_lr {
+            self.lr = adapt_learning_rate(self.lr, kl, &self.ppo);
+        }
+        let terms = self.loss_terms(b, &obs, &mean)?;
+        stats.minibatches += 1;
+        let loss_value = terms.total.to_scalar::<f32>()?;
+        if !loss_value.is_finite() {
+            stats.skipped += 1;
+            log::warn!("PPO: non-finite loss, minibatch skipped (weights kept)");
+            return Ok(());
+        }
+        let grads = terms.total.backward()?;
+        let info = self.opt.clipped_step(&grads, self.lr, self.ppo.max_grad_norm)?;
+        if !info.applied {
+            stats.skipped += 1;
+            log::warn!("PPO: non-finite gradient, minibatch skipped (weights kept)");
+            return Ok(());
+        }
+        let clip = self.ppo.clip;
+        let ratios = terms.ratio.to_vec1::<f32>()?;
+        stats.clip_fraction += ratios.iter().filter(|r| (**r as f64 - 1.0).abs() > clip).count() as f64 / rows as f64;
+        let scalar = |t: &Option<Tensor>| -> Result<f64> {
+            Ok(match t {
+                Some(t) => t.to_scalar::<f32>()? as f64,
+                None => 0.0,
+            })
+        };
+        stats.surrogate += terms.surrogate.to_scalar::<f32>()? as f64;
+        stats.value_loss += terms.value.to_scalar::<f32>()? as f64;
+        stats.entropy += terms.entropy.to_scalar::<f32>()? as f64;
+        stats.symmetry_loss += scalar(&terms.symmetry)?;
+        stats.decay_loss += scalar(&terms.decay)?;
+        stats.kl += kl;
+        stats.grad_norm += info.grad_norm;
+        Ok(())
+    }
+
+    /// The paper's total loss L = L_actor + L_critic + L_symmetry + L_decay and its parts, for one batch
+    /// (`obs` and `mean` = π(obs) already computed). L_actor is the clipped surrogate minus the entropy bonus;
+    /// symmetry and decay carry their coefficients.
+    pub fn loss_terms(&self, b: &Batch, obs: &Tensor, mean: &Tensor) -> Result<LossTerms> {
         let cpu = Device::Cpu;
         let rows = b.rows;
-        let (od, ad) = (self.ac.obs_dim, self.ac.act_dim);
-        let obs = Tensor::from_slice(&b.obs, (rows, od), &cpu)?;
-        let mean = self.ac.actor.forward(&obs)?;
-        let value = self.ac.critic.forward(&obs)?.squeeze(1)?;
+        let ad = self.ac.act_dim;
+        let value = self.ac.critic.forward(obs)?.squeeze(1)?;
         let log_std = self.ac.log_std.as_tensor();
-
-        // Adaptive learning rate from the KL between the rollout policy and the current one (rsl_rl's rule).
-        let kl = actor_critic::mean_kl(
-            &b.means,
-            old_std,
-            &mean.flatten_all()?.to_vec1::<f32>()?,
-            &log_std.exp()?.to_vec1::<f32>()?,
-        );
-        if self.ppo.adaptive_lr && kl.is_finite() {
-            if kl > 2.0 * self.ppo.desired_kl {
-                self.lr = (self.lr / 1.5).max(self.ppo.lr_min);
-            } else if kl < self.ppo.desired_kl / 2.0 && kl > 0.0 {
-                self.lr = (self.lr * 1.5).min(self.ppo.lr_max);
-            }
-        }
-
         let actions = Tensor::from_slice(&b.actions, (rows, ad), &cpu)?;
         let old_logp = Tensor::from_slice(&b.log_probs, rows, &cpu)?;
         let adv = Tensor::from_slice(&b.advantages, rows, &cpu)?;
         let ret = Tensor::from_slice(&b.returns, rows, &cpu)?;
         let old_v = Tensor::from_slice(&b.values, rows, &cpu)?;
         let clip = self.ppo.clip;
-
-        let logp = actor_critic::log_prob_tensor(&actions, &mean, log_std)?;
+        let logp = actor_critic::log_prob_tensor(&actions, mean, log_std)?;
         let ratio = (logp - old_logp)?.exp()?;
         let surr = ratio.mul(&adv)?.minimum(&ratio.clamp(1.0 - clip, 1.0 + clip)?.mul(&adv)?)?;
         let surrogate = surr.mean_all()?.neg()?;
@@ -177,47 +206,49 @@ impl Agent {
             (&value - &ret)?.sqr()?.mean_all()?
         };
         let entropy = actor_critic::entropy_tensor(log_std)?;
-        let mut loss =
+        let mut total =
             ((&surrogate + (&value_loss * self.ppo.value_loss_coef)?)? - (&entropy * self.ppo.entropy_coef)?)?;
-
-        let mut sym_value = 0.0;
-        if let (Some(sym), true) = (&self.symmetry, self.losses.symmetry_coef > 0.0) {
-            let sym_loss = symmetry_loss(&self.ac, sym, &b.obs, &mean, rows)?;
-            sym_value = sym_loss.to_scalar::<f32>()? as f64;
-            loss = (loss + (sym_loss * self.losses.symmetry_coef)?)?;
+        let symmetry = match (&self.symmetry, self.losses.symmetry_coef > 0.0) {
+            (Some(sym), true) => Some((symmetry_loss(&self.ac, sym, &b.obs, mean, rows)? * self.losses.symmetry_coef)?),
+            _ => None,
+        };
+        if let Some(s) = &symmetry {
+            total = (total + s)?;
         }
-        let mut decay_value = 0.0;
-        if self.losses.decay_coef > 0.0 {
-            let decay = (decay_loss(&self.ac)? * self.losses.decay_coef)?;
-            decay_value = decay.to_scalar::<f32>()? as f64;
-            loss = (loss + decay)?;
+        let decay =
+            if self.losses.decay_coef > 0.0 { Some((decay_loss(&self.ac)? * self.losses.decay_coef)?) } else { None };
+        if let Some(d) = &decay {
+            total = (total + d)?;
         }
-
-        stats.minibatches += 1;
-        let loss_value = loss.to_scalar::<f32>()?;
-        if !loss_value.is_finite() {
-            stats.skipped += 1;
-            log::warn!("PPO: non-finite loss, minibatch skipped (weights kept)");
-            return Ok(());
-        }
-        let grads = loss.backward()?;
-        let info = self.opt.clipped_step(&grads, self.lr, self.ppo.max_grad_norm)?;
-        if !info.applied {
-            stats.skipped += 1;
-            log::warn!("PPO: non-finite gradient, minibatch skipped (weights kept)");
-            return Ok(());
-        }
-        let ratios = ratio.to_vec1::<f32>()?;
-        stats.clip_fraction += ratios.iter().filter(|r| (**r as f64 - 1.0).abs() > clip).count() as f64 / rows as f64;
-        stats.surrogate += surrogate.to_scalar::<f32>()? as f64;
-        stats.value_loss += value_loss.to_scalar::<f32>()? as f64;
-        stats.entropy += entropy.to_scalar::<f32>()? as f64;
-        stats.symmetry_loss += sym_value;
-        stats.decay_loss += decay_value;
-        stats.kl += kl;
-        stats.grad_norm += info.grad_norm;
-        Ok(())
+        Ok(LossTerms { total, surrogate, value: value_loss, entropy, symmetry, decay, ratio })
     }
+}
+
+/// rsl_rl's adaptive schedule: divide by 1.5 when the KL exceeds twice the target, multiply by 1.5 when it is
+/// below half of it, within [lr_min, lr_max].
+pub fn adapt_learning_rate(lr: f64, kl: f64, ppo: &PpoConfig) -> f64 {
+    if !kl.is_finite() {
+        lr
+    } else if kl > 2.0 * ppo.desired_kl {
+        (lr / 1.5).max(ppo.lr_min)
+    } else if kl < ppo.desired_kl / 2.0 && kl > 0.0 {
+        (lr * 1.5).min(ppo.lr_max)
+    } else {
+        lr
+    }
+}
+
+/// The loss and its parts (scalars), plus the probability ratios (for the clip fraction).
+pub struct LossTerms {
+    pub total: Tensor,
+    pub surrogate: Tensor,
+    pub value: Tensor,
+    pub entropy: Tensor,
+    /// coef × L_symmetry, when there is a symmetry and a positive coefficient.
+    pub symmetry: Option<Tensor>,
+    /// λ‖θ_last‖², when λ > 0.
+    pub decay: Option<Tensor>,
+    pub ratio: Tensor,
 }
 
 /// L_symmetry = MSE(S_a(π(o)), π(S_o(o))) on the action means (paper, eq. "symmetry"); `obs` are normalised
@@ -243,21 +274,22 @@ pub fn decay_loss(ac: &ActorCritic) -> Result<Tensor> {
     last.weight.as_tensor().sqr()?.sum_all()? + last.bias.as_tensor().sqr()?.sum_all()?
 }
 
-/// One minibatch gathered into contiguous buffers.
-struct Minibatch {
-    rows: usize,
-    obs: Vec<f32>,
-    actions: Vec<f32>,
-    means: Vec<f32>,
-    log_probs: Vec<f32>,
-    values: Vec<f32>,
-    returns: Vec<f32>,
-    advantages: Vec<f32>,
+/// One minibatch gathered into contiguous buffers (obs normalised).
+#[derive(Debug, Clone, Default)]
+pub struct Batch {
+    pub rows: usize,
+    pub obs: Vec<f32>,
+    pub actions: Vec<f32>,
+    pub means: Vec<f32>,
+    pub log_probs: Vec<f32>,
+    pub values: Vec<f32>,
+    pub returns: Vec<f32>,
+    pub advantages: Vec<f32>,
 }
 
-impl Minibatch {
-    fn with_capacity(rows: usize, od: usize, ad: usize) -> Self {
-        Minibatch {
+impl Batch {
+    pub fn with_capacity(rows: usize, od: usize, ad: usize) -> Self {
+        Batch {
             rows,
             obs: Vec::with_capacity(rows * od),
             actions: Vec::with_capacity(rows * ad),
@@ -269,7 +301,8 @@ impl Minibatch {
         }
     }
 
-    fn gather(&mut self, r: &Rollout, idx: &[usize]) {
+    /// Copies rollout rows `idx` in.
+    pub fn gather(&mut self, r: &Rollout, idx: &[usize]) {
         let (od, ad) = (r.obs_dim, r.act_dim);
         self.rows = idx.len();
         for v in [

@@ -72,7 +72,7 @@ impl MatRef {
 struct Line([f32; 16]);
 
 /// A grow-only, cache-line aligned f32 buffer.
-#[derive(Default)]
+#[derive(Default, Clone)]
 pub(crate) struct AlignedBuf(Vec<Line>);
 
 impl AlignedBuf {
@@ -93,7 +93,7 @@ impl std::fmt::Debug for AlignedBuf {
 
 /// The right operand `B[k×n]` of a product, packed for the kernel (k-block after k-block; in each, `n/NR`
 /// panels of `kc × NR`, zero-padded) — or, when the `gemm` crate does the products, just the view.
-#[derive(Default, Debug)]
+#[derive(Default, Debug, Clone)]
 pub(crate) struct PackedB {
     buf: AlignedBuf,
     k: usize,

@@ -11,6 +11,10 @@ use super::Activation;
 /// `true` when the CPU has AVX2 and FMA (checked once; `is_x86_feature_detected!` caches it).
 #[inline]
 pub(crate) fn has_avx2_fma() -> bool {
+    #[cfg(test)]
+    if tests::FORCE_PORTABLE.with(|f| f.get()) {
+        return false;
+    }
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
@@ -27,9 +31,11 @@ macro_rules! multiversion {
         $(#[$m])*
         $vis fn $name($($arg: $ty),*) {
             #[inline(always)]
+            #[allow(clippy::too_many_arguments)]
             fn body($($arg: $ty),*) $body
             #[cfg(target_arch = "x86_64")]
             #[target_feature(enable = "avx2,fma")]
+            #[allow(clippy::too_many_arguments)]
             unsafe fn avx2($($arg: $ty),*) {
                 body($($arg),*)
             }
@@ -44,7 +50,10 @@ macro_rules! multiversion {
 }
 
 pub(crate) const LOG2E: f32 = std::f32::consts::LOG2_E;
+// ln 2 split so that n·LN2_HI is exact for the n we meet (written in full on purpose).
+#[allow(clippy::excessive_precision)]
 pub(crate) const LN2_HI: f32 = 0.693_145_751_953_125;
+#[allow(clippy::excessive_precision)]
 pub(crate) const LN2_LO: f32 = 1.428_606_765_330_187_045e-6;
 pub(crate) const ROUND_MAGIC: f32 = 12_582_912.0; // 1.5·2²³
 
@@ -112,6 +121,7 @@ multiversion! {
     /// `y = act(z)`: 1 where `y > 0`, `y + 1` elsewhere. `dy` row `r` starts at `dy[r * dy_rs]` with column stride
     /// `dy_cs` (candle may hand us a broadcast or transposed gradient); `y` and `dz` are row-major with `n` columns.
     /// Adds the column sums of `dz` to `colsum` (row by row, in row order).
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn act_backward_rows(
         dy: &[f32], dy_rs: usize, dy_cs: usize, y: &[f32], dz: &mut [f32], n: usize, act: Activation,
         colsum: &mut [f32],
@@ -187,8 +197,40 @@ multiversion! {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+    use std::cell::Cell;
+
+    thread_local! {
+        /// Makes this thread's element-wise kernels take their portable copies.
+        pub(crate) static FORCE_PORTABLE: Cell<bool> = const { Cell::new(false) };
+    }
+
+    #[test]
+    fn portable_and_avx2_copies_agree_bit_for_bit() {
+        let n = 45;
+        let rows = 9;
+        let z: Vec<f32> = (0..n * rows).map(|i| ((i * 7919 % 1000) as f32 / 90.0) - 8.0).collect();
+        let bias: Vec<f32> = (0..n).map(|j| (j as f32 * 0.37).sin()).collect();
+        let run = |portable: bool| -> Vec<u32> {
+            FORCE_PORTABLE.with(|f| f.set(portable));
+            let mut out = Vec::new();
+            for act in [Activation::Elu, Activation::Identity] {
+                let mut y = z.clone();
+                bias_act_rows(&mut y, n, &bias, act);
+                let mut dz = vec![0.0f32; n * rows];
+                let mut colsum = vec![0.25f32; n];
+                act_backward_rows(&z, n, 1, &y, &mut dz, n, act, &mut colsum);
+                let mut g = z.clone();
+                act_backward_inplace_rows(&mut g, &y, n, act, &mut colsum);
+                add_assign(&mut colsum, &bias);
+                out.extend(y.iter().chain(&dz).chain(&g).chain(&colsum).map(|v| v.to_bits()));
+            }
+            FORCE_PORTABLE.with(|f| f.set(false));
+            out
+        };
+        assert_eq!(run(true), run(false));
+    }
 
     #[test]
     fn expm1_accuracy() {

@@ -3,8 +3,10 @@
 //! Parallelism and determinism. Work is split into *fixed* blocks whose size never depends on the thread count,
 //! and a reduction is never split across threads:
 //! * products with the batch as the row dimension (forward `X·Wᵀ`, backward `dZ·W`) are cut into blocks of
-//!   [`ROW_BLOCK`] rows; each block is one single-threaded product (with bias + ELU fused in its epilogue in the
-//!   forward, followed by ELU' and the bias-gradient partial sums of the previous layer in the backward);
+//!   rows; each block is one single-threaded product (with bias + ELU fused in its epilogue in the forward,
+//!   followed by ELU' and the bias-gradient partial sums of the previous layer in the backward). In the backward
+//!   the blocks are [`ROW_BLOCK`] rows, since the bias-gradient partial sums follow them; in the forward, where
+//!   with our kernel each row's result is independent of the blocking, they are sized to the thread count;
 //! * the weight gradient `dZᵀ·X` (a reduction over the batch) is cut into fixed chunks of [`WG_CHUNK`] batch
 //!   rows, one single-threaded product each, and the chunk results are added in chunk order;
 //! * bias gradients are summed per row block (rows in order), then the block partials are added in block order.
@@ -30,6 +32,13 @@ struct MutPtr(*mut f32);
 // SAFETY: used only to hand disjoint output blocks to rayon tasks.
 unsafe impl Send for MutPtr {}
 unsafe impl Sync for MutPtr {}
+
+impl MutPtr {
+    /// The pointer (a method, so that closures capture the `Sync` wrapper rather than the raw field).
+    fn get(self) -> *mut f32 {
+        self.0
+    }
+}
 
 /// Runs `f(block)` for `block in 0..n_blocks` on the current rayon pool (inline when it has one thread).
 pub(crate) fn for_each_block(n_blocks: usize, f: impl Fn(usize) + Sync + Send) {
@@ -72,13 +81,29 @@ pub(crate) fn forward(
     unsafe { packed.pack(MatRef::row_major(w, k).t(), k, n) };
     let packed = &*packed;
     let yp = MutPtr(y.as_mut_ptr());
-    for_each_block(m.div_ceil(ROW_BLOCK), |blk| {
-        let yp = yp;
-        let r0 = blk * ROW_BLOCK;
-        let rows = ROW_BLOCK.min(m - r0);
+    // With our kernel a row's result does not depend on the block it is computed in, so the forward may size its
+    // blocks to the pool: about 4 per thread (balance), between 96 and ROW_BLOCK rows (cache). The `gemm` crate
+    // switches kernels (and summation order) for very small products, so its path keeps fixed blocks.
+    let block = if gemm::own_kernel() {
+        let threads = rayon::current_num_threads().max(1);
+        m.div_ceil(4 * threads).next_multiple_of(gemm::MR).clamp(96, ROW_BLOCK)
+    } else {
+        ROW_BLOCK
+    };
+    for_each_block(m.div_ceil(block), |blk| {
+        let r0 = blk * block;
+        let rows = block.min(m - r0);
         // SAFETY: blocks are disjoint row ranges of `y`; `x` has m rows of k.
         unsafe {
-            gemm::matmul_packed(rows, x.rows_from(r0), packed, yp.0.add(r0 * n), n, false, Epilogue::BiasAct(b, act))
+            gemm::matmul_packed(
+                rows,
+                x.rows_from(r0),
+                packed,
+                yp.get().add(r0 * n),
+                n,
+                false,
+                Epilogue::BiasAct(b, act),
+            )
         };
     });
 }
@@ -104,17 +129,16 @@ pub(crate) fn output_grad(dy: MatRef, y: &[f32], m: usize, n: usize, act: Activa
     let pp = MutPtr(partials.as_mut_ptr());
     let (rs, cs) = (dy.rs as usize, dy.cs as usize);
     for_each_block(n_blocks, |blk| {
-        let (dzp, pp, dy) = (dzp, pp, dy);
         let r0 = blk * ROW_BLOCK;
         let rows = ROW_BLOCK.min(m - r0);
         // SAFETY: disjoint row ranges of `dz` and disjoint partial slots; the `dy` view covers m×n elements with
         // non-negative strides, so the block is the slice from its first element.
         unsafe {
-            let dzb = std::slice::from_raw_parts_mut(dzp.0.add(r0 * n), rows * n);
-            let part = std::slice::from_raw_parts_mut(pp.0.add(blk * n), n);
+            let dzb = std::slice::from_raw_parts_mut(dzp.get().add(r0 * n), rows * n);
+            let part = std::slice::from_raw_parts_mut(pp.get().add(blk * n), n);
             let yb = &y[r0 * n..(r0 + rows) * n];
             let len = if rows == 0 || n == 0 { 0 } else { (rows - 1) * rs + (n - 1) * cs + 1 };
-            let dyb = std::slice::from_raw_parts(dy.ptr.add(r0 * rs), len);
+            let dyb = std::slice::from_raw_parts(dy.rows_from(r0).ptr, len);
             kernels::act_backward_rows(dyb, rs, cs, yb, dzb, n, act, part);
         }
     });
@@ -147,10 +171,9 @@ pub(crate) fn weight_grad(dz: &[f32], x: MatRef, m: usize, n: usize, k: usize) -
     let accp = MutPtr(acc.as_mut_ptr());
     let pp = MutPtr(partials.as_mut_ptr());
     for_each_block(n_chunks, |c| {
-        let (accp, pp) = (accp, pp);
         let r0 = c * WG_CHUNK;
         let len = WG_CHUNK.min(m - r0);
-        let dst = if c == 0 { accp.0 } else { pp.0.wrapping_add((c - 1) * size) };
+        let dst = if c == 0 { accp.get() } else { pp.get().wrapping_add((c - 1) * size) };
         // SAFETY: each chunk writes its own rows×cols buffer; the views cover batch rows r0..r0+len.
         unsafe { gemm::matmul(rows, cols, len, a.cols_from(r0), b.rows_from(r0), dst, cols, false, Epilogue::None) };
     });
@@ -159,11 +182,10 @@ pub(crate) fn weight_grad(dz: &[f32], x: MatRef, m: usize, n: usize, k: usize) -
         let span = 16 * 1024;
         let accp = MutPtr(acc.as_mut_ptr());
         for_each_block(size.div_ceil(span), |blk| {
-            let accp = accp;
             let lo = blk * span;
             let hi = size.min(lo + span);
             // SAFETY: disjoint element ranges of acc.
-            let dst = unsafe { std::slice::from_raw_parts_mut(accp.0.add(lo), hi - lo) };
+            let dst = unsafe { std::slice::from_raw_parts_mut(accp.get().add(lo), hi - lo) };
             for p in partials.chunks_exact(size) {
                 kernels::add_assign(dst, &p[lo..hi]);
             }
@@ -204,18 +226,17 @@ pub(crate) fn input_grad(
     unsafe { packed.pack(MatRef::row_major(w, k), n, k) };
     let packed = &packed;
     for_each_block(n_blocks, |blk| {
-        let (dxp, pp) = (dxp, pp);
         let r0 = blk * ROW_BLOCK;
         let rows = ROW_BLOCK.min(m - r0);
         // SAFETY: disjoint row ranges of dx (m·k floats) and disjoint partial slots; y_prev is m×k.
         unsafe {
-            let dxb = dxp.0.add(r0 * k);
+            let dxb = dxp.get().add(r0 * k);
             gemm::matmul_packed(rows, lhs.rows_from(r0), packed, dxb, k, false, Epilogue::None);
             if let Some((y_prev, act)) = prev {
                 // A separate pass over the block (still in L2/L3): as fast as doing it in the kernel's epilogue
                 // (measured), and simpler.
                 let g = std::slice::from_raw_parts_mut(dxb, rows * k);
-                let part = std::slice::from_raw_parts_mut(pp.0.add(blk * k), k);
+                let part = std::slice::from_raw_parts_mut(pp.get().add(blk * k), k);
                 kernels::act_backward_inplace_rows(g, &y_prev[r0 * k..(r0 + rows) * k], k, act, part);
             }
         }

@@ -116,7 +116,7 @@ pub struct Mlp {
 }
 
 /// Reusable buffers for [`Mlp::forward_inference`].
-#[derive(Default, Debug)]
+#[derive(Default, Debug, Clone)]
 pub struct MlpScratch {
     a: Vec<f32>,
     b: Vec<f32>,
