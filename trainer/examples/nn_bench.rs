@@ -19,8 +19,30 @@ use anyhow::Result;
 use candle_core::{Device, Tensor, Var};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 use trainer::nn::{self, Mlp, MlpScratch};
+
+/// Counts heap allocations (to check that `forward_inference` makes none once warmed up).
+struct CountingAlloc;
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+// SAFETY: forwards to the system allocator.
+unsafe impl GlobalAlloc for CountingAlloc {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        System.alloc(layout)
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        System.dealloc(ptr, layout)
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        System.realloc(ptr, layout, new_size)
+    }
+}
+#[global_allocator]
+static GLOBAL: CountingAlloc = CountingAlloc;
 
 const OBS: usize = 42;
 const ACT: usize = 10;
@@ -164,19 +186,23 @@ fn main() -> Result<()> {
     for _ in 0..10 {
         s.actor.forward_inference(&xv, rows, &mut out, &mut scratch);
     }
+    let allocs = ALLOCATIONS.load(Ordering::Relaxed);
     let t = Instant::now();
     for _ in 0..n {
         s.actor.forward_inference(&xv, rows, &mut out, &mut scratch);
     }
     let ours = t.elapsed().as_secs_f64() / n as f64;
+    let allocs = ALLOCATIONS.load(Ordering::Relaxed) - allocs;
     let t = Instant::now();
     for _ in 0..n / 4 {
         std::hint::black_box(s.actor.forward_reference(&x)?);
     }
     let plain = t.elapsed().as_secs_f64() / (n / 4) as f64;
     println!(
-        "RESULT threads={threads} inference {rows} rows: forward_inference {:.3} ms/call, plain candle forward {:.3} ms/call",
+        "RESULT threads={threads} inference {rows} rows: forward_inference {:.3} ms/call ({} heap allocations in {n} \
+         calls), plain candle forward {:.3} ms/call",
         ours * 1e3,
+        allocs,
         plain * 1e3
     );
     Ok(())

@@ -1,7 +1,7 @@
 //! Forward and backward of one dense layer on raw f32 slices: the compute behind the candle custom ops.
 //!
-//! Parallelism and determinism. Work is split into *fixed* blocks whose size never depends on the thread count,
-//! and a reduction is never split across threads:
+//! Parallelism and determinism. Wherever the blocking could change the arithmetic, work is split into blocks whose
+//! size does not depend on the thread count, and a reduction is never split across threads:
 //! * products with the batch as the row dimension (forward `X·Wᵀ`, backward `dZ·W`) are cut into blocks of
 //!   rows; each block is one single-threaded product (with bias + ELU fused in its epilogue in the forward,
 //!   followed by ELU' and the bias-gradient partial sums of the previous layer in the backward). In the backward

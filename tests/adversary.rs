@@ -1,0 +1,128 @@
+//! The cyclic adversary on the cart-pole: the schedule's phases, frozen networks really frozen, the adversary
+//! learning to hurt a fixed policy, and resume in the middle of phase 2.
+
+use topa_env::tasks::{cartpole, CartPole};
+use topa_env::BatchEnv;
+use trainer::config::TrainConfig;
+use trainer::schedule::Phase;
+use trainer::Trainer;
+
+fn config(seed: u64, p1: usize, p2: usize, p3: usize, cycles: usize) -> TrainConfig {
+    let mut c = TrainConfig::default();
+    c.run.seed = seed;
+    c.run.num_envs = 16;
+    c.run.steps_per_env = 64;
+    c.ppo.learning_rate = 1e-3;
+    c.ppo.desired_kl = 0.01;
+    c.ppo.entropy_coef = 0.0;
+    c.network.actor_hidden = vec![32, 32];
+    c.network.critic_hidden = vec![32, 32];
+    c.losses.decay_coef = 0.0;
+    let a = &mut c.adversary;
+    (a.phase1_policy_iters, a.phase2_adversary_iters, a.phase3_policy_iters, a.cycles) = (p1, p2, p3, cycles);
+    a.hidden = vec![32, 32];
+    a.learning_rate = 1e-3;
+    a.generic_bound = 1.5; // N on the pole
+    c
+}
+
+fn trainer(cfg: &TrainConfig) -> Trainer {
+    let model = cartpole::model().unwrap();
+    let tasks =
+        (0..cfg.run.num_envs).map(|i| CartPole::new(model.clone(), cfg.run.seed, i as u64, 200).unwrap()).collect();
+    Trainer::new(cfg.clone(), Box::new(BatchEnv::new(tasks, 1).unwrap()), true).unwrap()
+}
+
+fn flat(vars: &[candle_core::Var]) -> Vec<Vec<f32>> {
+    vars.iter().map(|v| v.as_tensor().flatten_all().unwrap().to_vec1::<f32>().unwrap()).collect()
+}
+
+#[test]
+fn phases_alternate_and_frozen_networks_do_not_move() {
+    let mut t = trainer(&config(1, 2, 2, 2, 2));
+    assert_eq!(t.schedule.phases(), vec![1, 1, 2, 2, 3, 3, 2, 2, 3, 3]);
+    let mut seen = vec![];
+    loop {
+        let (pol, adv) = (flat(&t.policy.ac.vars()), flat(&t.adversary.as_ref().unwrap().agent.ac.vars()));
+        let stats = |n: &trainer::normalizer::Normalizer| (n.mean.clone(), n.m2.clone(), n.count);
+        let (pol_norm, adv_norm) =
+            (stats(&t.policy.normalizer), stats(&t.adversary.as_ref().unwrap().agent.normalizer));
+        let Some(log) = t.iterate().unwrap() else { break };
+        seen.push(log.phase.number());
+        let (pol2, adv2) = (flat(&t.policy.ac.vars()), flat(&t.adversary.as_ref().unwrap().agent.ac.vars()));
+        match log.phase {
+            Phase::Policy => {
+                assert_eq!(adv2, adv, "phase 1: the adversary does not learn");
+                assert!(log.adversary.is_none() && log.perturbation == [0.0; 3]);
+            }
+            Phase::Adversary => {
+                assert_eq!(pol2, pol, "phase 2: the policy is frozen, bit for bit");
+                assert_eq!(stats(&t.policy.normalizer), pol_norm, "phase 2: the policy's normaliser is frozen too");
+                assert!(log.policy.is_none() && log.adversary.is_some(), "no gradient work for the frozen policy");
+                assert_ne!(adv2, adv);
+            }
+            Phase::PolicyUnderAttack => {
+                assert_eq!(adv2, adv, "phase 3: the adversary is frozen, bit for bit");
+                assert_eq!(stats(&t.adversary.as_ref().unwrap().agent.normalizer), adv_norm);
+                assert!(log.adversary.is_none() && log.policy.is_some());
+                assert_ne!(pol2, pol);
+            }
+        }
+    }
+    assert_eq!(seen, vec![1, 1, 2, 2, 3, 3, 2, 2, 3, 3]);
+}
+
+#[test]
+fn the_adversary_learns_to_topple_a_fixed_policy() {
+    // Phase 1 learns to balance; phase 2 trains the adversary against the frozen balancer.
+    let mut t = trainer(&config(2, 20, 30, 0, 1));
+    let mut phase2 = vec![];
+    while let Some(log) = t.iterate().unwrap() {
+        if log.phase == Phase::Adversary && log.episodes.episodes > 0 {
+            phase2.push(log.episodes.mean_length);
+        } else if log.phase == Phase::Adversary {
+            phase2.push(200.0); // no episode ended at all: the attack failed this iteration
+        }
+    }
+    let early: f64 = phase2[..5].iter().sum::<f64>() / 5.0;
+    let late: f64 = phase2[phase2.len() - 5..].iter().sum::<f64>() / 5.0;
+    eprintln!("episode length under attack: first 5 iterations {early:.1}, last 5 {late:.1}");
+    assert!(late < 0.7 * early, "the adversary did not learn: episode length {early:.1} → {late:.1}");
+}
+
+#[test]
+fn resume_in_the_middle_of_phase_two_continues_exactly() {
+    let cfg = config(3, 2, 4, 2, 1);
+    let mut straight = trainer(&cfg);
+    for _ in 0..7 {
+        straight.iterate().unwrap();
+    }
+    let dir = std::env::temp_dir().join(format!("topa-adv-resume-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut first = trainer(&cfg);
+    for _ in 0..4 {
+        first.iterate().unwrap();
+    }
+    let pos = first.position().unwrap();
+    assert_eq!((pos.phase, pos.iter_in_phase), (Phase::Adversary, 2), "stopped mid-phase 2");
+    trainer::checkpoint::save(&first, &dir, "test", 0).unwrap();
+    let (side, loaded) = trainer::checkpoint::read_sidecar(&trainer::checkpoint::latest(&dir).unwrap()).unwrap();
+    let mut resumed = trainer(&side.config);
+    trainer::checkpoint::restore(&mut resumed, &side, &loaded).unwrap();
+    let pos = resumed.position().unwrap();
+    assert_eq!(
+        (pos.phase, pos.iter_in_phase, pos.phase_len - pos.iter_in_phase),
+        (Phase::Adversary, 2, 2),
+        "2 iterations of phase 2 remain"
+    );
+    for _ in 0..3 {
+        resumed.iterate().unwrap();
+    }
+    assert_eq!(flat(&resumed.policy.ac.vars()), flat(&straight.policy.ac.vars()));
+    assert_eq!(
+        flat(&resumed.adversary.as_ref().unwrap().agent.ac.vars()),
+        flat(&straight.adversary.as_ref().unwrap().agent.ac.vars())
+    );
+    assert_eq!(resumed.env.obs(), straight.env.obs());
+    std::fs::remove_dir_all(dir).ok();
+}
