@@ -143,6 +143,21 @@ enum BenchCmd {
         #[arg(long, default_value_t = 3)]
         rounds: usize,
     },
+    /// Samples/s of a full PPO update (paper networks, 24 576 samples) at 1 and 2 threads, GFLOP/s, inference
+    /// share of an iteration, and the torch reference if given.
+    Ppo {
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<usize>,
+        /// Timed updates per thread count (best kept).
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        /// A Python with torch, to measure trainer/examples/torch_reference.py in the same run.
+        #[arg(long)]
+        torch_python: Option<String>,
+        /// Internal: run one measurement in this process and print JSON.
+        #[arg(long, hide = true)]
+        worker: bool,
+    },
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
@@ -190,6 +205,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Cmd::Bench(BenchCmd::Physics { model, steps, rounds, batch, no_testspeed }) => {
             bench::physics::run(&model, steps, rounds, batch, !no_testspeed)
+        }
+        Cmd::Bench(BenchCmd::Ppo { threads, repeats, torch_python, worker }) => {
+            if worker {
+                let r = bench::ppo::worker(threads[0], repeats)?;
+                println!("{}", serde_json::to_string(&r)?);
+                Ok(())
+            } else {
+                bench::ppo::run(&threads, repeats, torch_python.as_deref())
+            }
         }
         Cmd::Bench(BenchCmd::Env { model, envs, threads, integrator, seconds, rounds }) => {
             bench::env::run(model, &envs, &threads, &integrator, seconds, rounds)

@@ -2,3 +2,4 @@
 
 pub mod env;
 pub mod physics;
+pub mod ppo;

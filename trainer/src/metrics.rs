@@ -66,6 +66,7 @@ impl MetricsWriter {
             "wall_time_s",
             "fps",
             "collect_s",
+            "inference_s",
             "update_s",
             "episodes",
             "mean_return",
@@ -86,13 +87,22 @@ impl MetricsWriter {
         columns.extend(term_names.iter().map(|t| format!("rew_{t}")));
         let csv_path = dir.join("metrics.csv");
         let header = columns.join(",");
+        // On resume keep the rows up to the checkpoint (later ones are about to be redone), re-ordered into the
+        // current columns by name, so a run continued by a newer build keeps its history.
         let kept = match (resume_iteration, std::fs::read_to_string(&csv_path)) {
-            (Some(it), Ok(text)) if text.lines().next() == Some(header.as_str()) => text
-                .lines()
-                .skip(1)
-                .filter(|l| l.split(',').next().and_then(|v| v.parse::<usize>().ok()).is_some_and(|i| i <= it))
-                .map(|l| format!("{l}\n"))
-                .collect::<String>(),
+            (Some(it), Ok(text)) => {
+                let mut lines = text.lines();
+                let old: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
+                let index: Vec<Option<usize>> = columns.iter().map(|c| old.iter().position(|o| o == c)).collect();
+                lines
+                    .filter(|l| l.split(',').next().and_then(|v| v.parse::<usize>().ok()).is_some_and(|i| i <= it))
+                    .map(|l| {
+                        let cells: Vec<&str> = l.split(',').collect();
+                        let row: Vec<&str> = index.iter().map(|i| i.and_then(|i| cells.get(i).copied()).unwrap_or("")).collect();
+                        format!("{}\n", row.join(","))
+                    })
+                    .collect::<String>()
+            }
             _ => String::new(),
         };
         crate::tensorfile::write_atomic(&csv_path, format!("{header}\n{kept}").as_bytes())?;
@@ -115,6 +125,7 @@ impl MetricsWriter {
             log.wall_time_s,
             log.fps,
             log.collect_s,
+            log.inference_s,
             log.update_s,
             e.episodes as f64,
             e.mean_return,
@@ -161,7 +172,7 @@ fn tb_tag(column: &str) -> String {
         }
     }
     match column {
-        "fps" | "collect_s" | "update_s" | "wall_time_s" | "samples" => format!("perf/{column}"),
+        "fps" | "collect_s" | "inference_s" | "update_s" | "wall_time_s" | "samples" => format!("perf/{column}"),
         _ => format!("episode/{column}"),
     }
 }

@@ -31,6 +31,8 @@ pub struct IterationLog {
     pub samples: u64,
     pub wall_time_s: f64,
     pub collect_s: f64,
+    /// Part of `collect_s` spent in the networks (normalising, batched forward passes, sampling).
+    pub inference_s: f64,
     pub update_s: f64,
     /// Environment samples per second over this iteration (collection + update).
     pub fps: f64,
@@ -145,7 +147,7 @@ impl Trainer {
         if let Some(a) = &mut self.adversary {
             a.agent.normalizer.frozen = pos.phase != Phase::Adversary;
         }
-        let (mean_step_reward, perturbation) = self.collect(pos.phase)?;
+        let (mean_step_reward, perturbation, inference_s) = self.collect(pos.phase)?;
         let collect_s = start.elapsed().as_secs_f64();
         let t_update = Instant::now();
         let (mut policy_stats, mut adversary_stats) = (None, None);
@@ -168,6 +170,7 @@ impl Trainer {
             samples: self.samples,
             wall_time_s: self.wall_time_s,
             collect_s,
+            inference_s,
             update_s,
             fps: n as f64 / elapsed,
             episodes: self.env.take_episode_stats(),
@@ -180,7 +183,7 @@ impl Trainer {
     }
 
     /// One rollout of `steps_per_env` steps; fills the learning agent's storage and computes its returns.
-    fn collect(&mut self, phase: Phase) -> Result<(f64, [f64; 3])> {
+    fn collect(&mut self, phase: Phase) -> Result<(f64, [f64; 3], f64)> {
         let (n, od, ad) = (self.env.num_envs(), self.env.obs_dim(), self.env.action_dim());
         let steps = self.cfg.run.steps_per_env;
         let gamma = self.cfg.ppo.gamma;
@@ -208,7 +211,9 @@ impl Trainer {
             r.clear();
         }
         let (mut reward_sum, mut magnitude) = (0.0f64, [0.0f64; 3]);
+        let mut inference = std::time::Duration::ZERO;
         for t in 0..steps {
+            let t_act = Instant::now();
             let s = &mut self.scratch;
             s.raw_obs.copy_from_slice(self.env.obs());
             // The policy acts: sampling and storing when it learns, its mean action when frozen.
@@ -266,6 +271,7 @@ impl Trainer {
                 }
                 self.env.set_perturbations(&s.perturbation)?;
             }
+            inference += t_act.elapsed();
             self.env.step(&s.actions)?;
             reward_sum += self.env.rewards().iter().map(|&r| r as f64).sum::<f64>();
             self.store_rewards(t, phase, gamma)?;
@@ -280,7 +286,7 @@ impl Trainer {
             a.agent.values(&final_obs, &mut last);
             r.compute_returns(&last, gamma, self.cfg.ppo.gae_lambda);
         }
-        Ok((reward_sum / (n * steps) as f64, magnitude))
+        Ok((reward_sum / (n * steps) as f64, magnitude, inference.as_secs_f64()))
     }
 
     /// Stores step `t`'s rewards and dones for the learning agent, adding γ·V(terminal observation) where an

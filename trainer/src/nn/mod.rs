@@ -14,7 +14,8 @@
 //!   per pass that costs more than the element-wise work itself). Also fuses each layer's ELU' and bias-gradient
 //!   sums into the backward product of the next layer. ~10 % faster than chaining [`linear`] on the paper's update.
 //!   See `ops.rs`.
-//! * [`Mlp::forward_inference`]: the rollout path on plain slices, no autograd, no allocation once warmed up.
+//! * [`Mlp::forward_inference`]: the rollout path on plain slices, no autograd, no allocation of its own once
+//!   warmed up (with 2+ threads, rayon's job queue allocates a small block every ~60 parallel sections).
 //!
 //! Products run on an AVX2/FMA 6×16 register-tile kernel with packed weights (`gemm.rs`), the `gemm` crate
 //! (candle's matmul) on CPUs without AVX2/FMA or when `NN_GEMM=crate` is set (a diagnostic switch for A/B timing).
@@ -216,7 +217,8 @@ impl Mlp {
 
     /// Inference without autograd: `x` holds `rows` row-major observations; `out` is resized to `rows × out`.
     /// Buffers in `scratch` and `out` only ever grow, so once warmed up to the largest batch a call allocates
-    /// nothing of its own. Same arithmetic as [`Mlp::forward`] (bit-identical results).
+    /// nothing of its own. Same arithmetic as [`Mlp::forward`]: bit-identical results (on CPUs with AVX2/FMA; with
+    /// the `gemm` crate's products, equal up to rounding).
     ///
     /// # Panics
     /// If `x.len() != rows × in`, or the parameters are not contiguous f32 CPU tensors.

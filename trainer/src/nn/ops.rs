@@ -245,8 +245,11 @@ impl CustomOp3 for ChainOp {
             layer::forward(x, m, k, w, b, n, self.act(), &mut y, &mut PackedB::default());
         } else {
             let h = self.ctx.hidden(self.l - 1)?;
-            k = h.len() / m.max(1);
-            check_layer(k, l2.dims()[0], *l2.dims().get(1).unwrap_or(&0), n)?;
+            k = *l2.dims().get(1).unwrap_or(&0);
+            if h.len() != m * k {
+                bail!("nn: layer {} expects {k} inputs, the previous layer has {}", self.l, h.len() / m.max(1));
+            }
+            check_layer(k, l2.dims()[0], k, n)?;
             layer::forward(MatRef::row_major(&h, k), m, k, w, b, n, self.act(), &mut y, &mut PackedB::default());
         }
         if self.is_last() {
