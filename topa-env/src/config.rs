@@ -152,9 +152,11 @@ impl Default for RewardConfig {
             sigma_w: 0.25,
             sigma_g: 0.05,
             sigma_h: 0.002,
-            sigma_roll: 0.05,
-            sigma_yaw: 0.05,
-            sigma_pitch: 0.1,
+            // Wide enough that walking sideways (hip roll ≈ 0.1 rad), turning (hip yaw ≈ 0.2 rad) and pushing
+            // off (ankle ≈ ±0.3 rad) keep most of these rewards: tighter kernels made standing still the optimum.
+            sigma_roll: 0.1,
+            sigma_yaw: 0.1,
+            sigma_pitch: 0.3,
             base_height_target: 0.5607,
             air_time_target: 0.5,
             soft_joint_limit: 0.95,
