@@ -73,12 +73,17 @@ fn run_worker(threads: usize, repeats: usize) -> Result<WorkerResult> {
 
 fn torch_samples_per_s(python: &str, threads: usize) -> Result<f64> {
     let script = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("trainer/examples/torch_reference.py");
-    let out = Command::new(python).arg(&script).args(["--threads", &threads.to_string()]).output()
+    let out = Command::new(python)
+        .arg(&script)
+        .args(["--threads", &threads.to_string()])
+        .output()
         .with_context(|| format!("cannot run {python}"))?;
     let text = String::from_utf8_lossy(&out.stdout);
     text.lines()
         .find_map(|l| l.split("best: ").nth(1).and_then(|r| r.split_whitespace().next()).and_then(|v| v.parse().ok()))
-        .with_context(|| format!("torch reference printed no 'best:' line:\n{text}{}", String::from_utf8_lossy(&out.stderr)))
+        .with_context(|| {
+            format!("torch reference printed no 'best:' line:\n{text}{}", String::from_utf8_lossy(&out.stderr))
+        })
 }
 
 pub fn run(threads: &[usize], repeats: usize, torch_python: Option<&str>) -> Result<()> {

@@ -63,7 +63,7 @@ impl Experiment for Noise {
 
 /// The per-run noise streams: run `r` of level `l` always draws the same sequence for a given seed.
 pub fn stream(seed: u64, level: usize, run: usize) -> ChaCha8Rng {
-    let mut r = ChaCha8Rng::seed_from_u64(seed ^ 0x6e6f_6973_65);
+    let mut r = ChaCha8Rng::seed_from_u64(seed ^ 0x006e_6f69_7365);
     r.set_stream((level * 1_000_000 + run) as u64);
     r
 }

@@ -201,7 +201,7 @@ mod tests {
         e(r[13], 0.3);
         let mut out = [0.0; N_TERMS];
         let total = weighted_terms(&c, &x, 0.02, &mut out);
-        e(out[2], -1.0 * 0.09 * 0.02);
+        e(out[2], -0.09 * 0.02); // weight −1 × v_z² × dt
         e(total, out.iter().sum());
     }
 }

@@ -3,7 +3,8 @@
 //! Per minibatch of 6144 rows: actor forward, a second actor forward on another input (the symmetry term), critic
 //! forward, a scalar loss touching all three outputs (mean of squares), backward, plain SGD step on every var.
 //! 24 576 samples × 5 epochs = 20 minibatches. samples/s = 24 576 / seconds for the whole 5-epoch update (as in
-//! shared/notes/candle-cpu-profile.md); GFLOP/s counts 16.8 MFLOP per sample for the whole update.
+//! shared/notes/candle-cpu-profile.md); GFLOP/s counts the nominal FLOPs of the whole update (16.76 MFLOP per sample
+//! for the paper's networks, the notes' "≈ 16.8").
 //!
 //! Variants, timed interleaved (round-robin) so that they see the same machine state:
 //! * `plain`: straightforward candle (matmul + broadcast_add + elu, candle's backward);
@@ -12,7 +13,7 @@
 //!
 //! ```text
 //! cargo run --release -p trainer --example nn_bench -- --threads 2 [--repeats 5] [--variants ours,layerwise,plain]
-//!     [--no-inference]
+//!     [--hidden 512,256,128] [--no-inference]
 //! ```
 
 use anyhow::Result;
@@ -49,7 +50,6 @@ const ACT: usize = 10;
 const SAMPLES: usize = 24_576;
 const MINIBATCH: usize = 6_144;
 const EPOCHS: usize = 5;
-const FLOP_PER_SAMPLE: f64 = 16.8e6;
 
 #[derive(Clone, Copy, PartialEq, Debug)]
 enum Variant {
@@ -88,10 +88,21 @@ struct Setup {
     mirrored: Tensor,
 }
 
-fn setup(seed: u64) -> Result<Setup> {
+fn dims(hidden: &[usize], out: usize) -> Vec<usize> {
+    std::iter::once(OBS).chain(hidden.iter().copied()).chain(std::iter::once(out)).collect()
+}
+
+/// Nominal FLOPs per sample for the whole update: per epoch 3 forward passes (2 actor, 1 critic) at 2 FLOP per
+/// multiply-add, and their backward at twice that; 16.76 M for the paper's networks (the notes' "≈ 16.8 M").
+fn flop_per_sample(hidden: &[usize]) -> f64 {
+    let macs = |d: &[usize]| d.windows(2).map(|w| w[0] * w[1]).sum::<usize>() as f64;
+    EPOCHS as f64 * 6.0 * (2.0 * macs(&dims(hidden, ACT)) + macs(&dims(hidden, 1)))
+}
+
+fn setup(seed: u64, hidden: &[usize]) -> Result<Setup> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let actor = Mlp::new(&[OBS, 512, 256, 128, ACT], &mut rng)?;
-    let critic = Mlp::new(&[OBS, 512, 256, 128, 1], &mut rng)?;
+    let actor = Mlp::new(&dims(hidden, ACT), &mut rng)?;
+    let critic = Mlp::new(&dims(hidden, 1), &mut rng)?;
     let mut vars = actor.vars();
     vars.extend(critic.vars());
     let obs = random(SAMPLES, OBS, &mut rng)?;
@@ -137,11 +148,21 @@ fn main() -> Result<()> {
             other => panic!("unknown variant {other}"),
         })
         .collect();
+    let hidden: Vec<usize> = arg("--hidden")
+        .unwrap_or_else(|| "512,256,128".into())
+        .split(',')
+        .map(|s| s.parse())
+        .collect::<std::result::Result<_, _>>()?;
+    let flops = flop_per_sample(&hidden);
     nn::init_threads(threads)?;
-    println!("threads {threads} (rayon {}), repeats {repeats}", rayon::current_num_threads());
+    println!(
+        "threads {threads} (rayon {}), repeats {repeats}, hidden {hidden:?}, {:.2} MFLOP per sample",
+        rayon::current_num_threads(),
+        flops / 1e6
+    );
 
     // Same initial weights for every variant: each gets its own copy of the seeded setup.
-    let setups: Vec<Setup> = variants.iter().map(|_| setup(1)).collect::<Result<_>>()?;
+    let setups: Vec<Setup> = variants.iter().map(|_| setup(1, &hidden)).collect::<Result<_>>()?;
     let mut times: Vec<Vec<f64>> = vec![Vec::new(); variants.len()];
     for (s, &v) in setups.iter().zip(&variants) {
         let (t, loss) = update(s, v, 1e-3)?; // warm-up
@@ -155,7 +176,7 @@ fn main() -> Result<()> {
                 "  {:<22} {t:.3} s  {:7.0} samples/s  {:6.1} GFLOP/s",
                 v.name(),
                 SAMPLES as f64 / t,
-                SAMPLES as f64 * FLOP_PER_SAMPLE / t / 1e9
+                SAMPLES as f64 * flops / t / 1e9
             );
         }
     }
@@ -167,7 +188,7 @@ fn main() -> Result<()> {
             "RESULT threads={threads} {:<22} best {:7.0} samples/s {:6.1} GFLOP/s | median {:7.0} samples/s",
             v.name(),
             SAMPLES as f64 / best,
-            SAMPLES as f64 * FLOP_PER_SAMPLE / best / 1e9,
+            SAMPLES as f64 * flops / best / 1e9,
             SAMPLES as f64 / med
         );
     }

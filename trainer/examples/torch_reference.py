@@ -4,10 +4,11 @@
 Per minibatch of 6144 rows: actor forward, a second actor forward on another input (symmetry term), critic forward,
 a scalar loss touching all three outputs (mean of squares), backward, plain SGD step. 24 576 samples x 5 epochs =
 20 minibatches. samples/s = 24 576 / seconds for the whole 5-epoch update (as in shared/notes/candle-cpu-profile.md);
-GFLOP/s counts 16.8 MFLOP per sample for the whole update. Also times the batched inference forward (4096 rows).
+GFLOP/s counts the nominal FLOPs of the whole update (16.76 MFLOP per sample for the paper's networks). Also times
+the batched inference forward (4096 rows).
 
     python examples/torch_reference.py --threads 1
-    python examples/torch_reference.py --threads 2
+    python examples/torch_reference.py --threads 2 [--hidden 256,128,64]
 """
 import argparse
 import time
@@ -16,9 +17,15 @@ import torch
 from torch import nn
 
 OBS, ACT = 42, 10
-HIDDEN = [512, 256, 128]
 SAMPLES, MINIBATCH, EPOCHS = 24576, 6144, 5
-FLOP_PER_SAMPLE = 16.8e6
+
+
+def flop_per_sample(hidden):
+    """Nominal FLOPs per sample for the whole update: per epoch 3 forward passes (2 actor, 1 critic) at 2 FLOP per
+    multiply-add and their backward at twice that; 16.76 M for the paper's networks (the notes' "~16.8 M")."""
+    def macs(dims):
+        return sum(a * b for a, b in zip(dims, dims[1:]))
+    return EPOCHS * 6.0 * (2 * macs([OBS] + hidden + [ACT]) + macs([OBS] + hidden + [1]))
 
 
 def mlp(dims):
@@ -35,11 +42,14 @@ def main():
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--lr", type=float, default=1e-3)
+    p.add_argument("--hidden", default="512,256,128")
     a = p.parse_args()
+    hidden = [int(h) for h in a.hidden.split(",")]
+    flops = flop_per_sample(hidden)
     torch.set_num_threads(a.threads)
     torch.manual_seed(0)
-    actor = mlp([OBS] + HIDDEN + [ACT])
-    critic = mlp([OBS] + HIDDEN + [1])
+    actor = mlp([OBS] + hidden + [ACT])
+    critic = mlp([OBS] + hidden + [1])
     params = list(actor.parameters()) + list(critic.parameters())
     obs = torch.randn(SAMPLES, OBS)
     mirrored = torch.randn(SAMPLES, OBS)
@@ -67,9 +77,9 @@ def main():
         dt = time.perf_counter() - t
         best = dt if best is None else min(best, dt)
         print(f"torch threads={a.threads} update {dt:.3f} s  {SAMPLES / dt:8.0f} samples/s  "
-              f"{SAMPLES * FLOP_PER_SAMPLE / dt / 1e9:6.1f} GFLOP/s")
+              f"{SAMPLES * flops / dt / 1e9:6.1f} GFLOP/s")
     print(f"torch threads={a.threads} best: {SAMPLES / best:.0f} samples/s, "
-          f"{SAMPLES * FLOP_PER_SAMPLE / best / 1e9:.1f} GFLOP/s")
+          f"{SAMPLES * flops / best / 1e9:.1f} GFLOP/s")
 
     x = torch.randn(4096, OBS)
     with torch.inference_mode():

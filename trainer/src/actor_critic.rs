@@ -47,7 +47,7 @@ impl ActorCritic {
     }
 
     pub fn std(&self) -> Result<Vec<f32>> {
-        Ok(self.log_std.as_tensor().exp()?.to_vec1::<f32>()?)
+        self.log_std.as_tensor().exp()?.to_vec1::<f32>()
     }
 }
 

@@ -6,7 +6,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use topa_env::EnvConfig;
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TrainConfig {
     pub run: RunConfig,
@@ -15,19 +15,6 @@ pub struct TrainConfig {
     pub network: NetworkConfig,
     pub losses: LossConfig,
     pub adversary: AdversaryConfig,
-}
-
-impl Default for TrainConfig {
-    fn default() -> Self {
-        TrainConfig {
-            run: RunConfig::default(),
-            env: EnvConfig::default(),
-            ppo: PpoConfig::default(),
-            network: NetworkConfig::default(),
-            losses: LossConfig::default(),
-            adversary: AdversaryConfig::default(),
-        }
-    }
 }
 
 /// How long, how parallel, how often to save.

@@ -98,7 +98,8 @@ impl MetricsWriter {
                     .filter(|l| l.split(',').next().and_then(|v| v.parse::<usize>().ok()).is_some_and(|i| i <= it))
                     .map(|l| {
                         let cells: Vec<&str> = l.split(',').collect();
-                        let row: Vec<&str> = index.iter().map(|i| i.and_then(|i| cells.get(i).copied()).unwrap_or("")).collect();
+                        let row: Vec<&str> =
+                            index.iter().map(|i| i.and_then(|i| cells.get(i).copied()).unwrap_or("")).collect();
                         format!("{}\n", row.join(","))
                     })
                     .collect::<String>()
