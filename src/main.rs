@@ -89,7 +89,7 @@ enum Cmd {
         /// Threads for environments and networks (default: the config's; 0 = all cores).
         #[arg(long)]
         threads: Option<usize>,
-        /// Override run.iterations (plain PPO only).
+        /// Override run.iterations (plain PPO only); with --resume, lengthens or shortens the run.
         #[arg(long)]
         iterations: Option<usize>,
         /// Continue the run in this folder from its latest checkpoint.

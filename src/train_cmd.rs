@@ -30,8 +30,9 @@ pub fn topa_env(cfg: &TrainConfig) -> Result<Box<dyn VecEnv>> {
     Ok(Box::new(assets::topa_batch(&cfg.env, cfg.run.num_envs, cfg.run.seed, 0)?))
 }
 
+/// The command as a user would retype it: `topa` and the arguments, whatever the binary's path.
 fn command_line() -> String {
-    std::env::args().collect::<Vec<_>>().join(" ")
+    std::iter::once("topa".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ")
 }
 
 fn machine() -> String {
@@ -108,12 +109,27 @@ pub fn run(args: TrainArgs) -> Result<()> {
         if let Some(th) = args.threads {
             cfg.run.threads = th;
         }
+        if let Some(n) = args.iterations {
+            if side.with_adversary {
+                bail!("--iterations cannot change an adversary run: its length is the [adversary] schedule's");
+            }
+            if n < side.iteration {
+                bail!("--iterations {n} is below the {} iterations {} has already run", side.iteration, dir.display());
+            }
+            cfg.run.iterations = n;
+        }
         trainer::nn::init_threads(crate::resolve_threads(cfg.run.threads))?;
         let mut t = Trainer::new(cfg.clone(), topa_env(&cfg)?, side.with_adversary)?;
         checkpoint::restore(&mut t, &side, &loaded)?;
         eprintln!("resuming {} at iteration {} ({} samples so far)", dir.display(), t.iteration, t.samples);
         let it = t.iteration;
-        (t, dir.clone(), side.command.clone(), Some(it))
+        // The record keeps every invocation that shaped the run (a resume may change its length).
+        let command = if args.iterations.is_some() {
+            format!("{} && {}", side.command, command_line())
+        } else {
+            side.command.clone()
+        };
+        (t, dir.clone(), command, Some(it))
     } else {
         let path = args.config.as_deref().context("give --config configs/<preset>.toml (or --resume DIR)")?;
         let mut cfg = TrainConfig::load(path)?;
@@ -184,6 +200,11 @@ pub fn run(args: TrainArgs) -> Result<()> {
         }
     }
     bar.finish();
+    // A resume that shortened the run to where it stood exports here: the record then names the final config.
+    if resumed_at == Some(trainer.iteration) {
+        checkpoint::save(&trainer, &ckpt_dir, &command, keep)?;
+        export_policy(&trainer, &out, &command)?;
+    }
     let png = out.join("learning_curve.png");
     if let Err(e) = crate::plots::learning_curve(metrics.csv_path(), &png) {
         log::warn!("no learning curve: {e:#}");
