@@ -66,7 +66,14 @@ fn draw_series(
         .y_label_area_size(70)
         .build_cartesian_2d(0.0..x_max, (lo - pad)..(hi + pad))
         .map_err(err)?;
-    chart.configure_mesh().x_desc("iteration").label_style(("sans-serif", 16)).draw().map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("iteration")
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .y_label_formatter(&|y| format!("{y:.0}"))
+        .label_style(("sans-serif", 16))
+        .draw()
+        .map_err(err)?;
     // Phase-2 iterations (adversary learning, policy frozen) in grey.
     chart
         .draw_series(
