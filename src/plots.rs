@@ -135,6 +135,8 @@ where
             .disable_mesh()
             .x_desc("F_x (N), torso frame")
             .y_desc("F_y (N)")
+            .x_label_formatter(&|x| format!("{x:.0}"))
+            .y_label_formatter(&|y| format!("{y:.0}"))
             .label_style(("sans-serif", 14))
             .draw()
             .map_err(err)?;

@@ -83,11 +83,15 @@ fn progress_line(log: &IterationLog, total: usize) -> String {
         1 => "phase 1".to_string(),
         p => format!("phase {p} c{}", log.cycle),
     };
+    // Envs reset together (start, fork) time out together: most iterations then end no episode.
+    let episodes = if e.episodes == 0 {
+        "no episode ended".to_string()
+    } else {
+        format!("return {:.2} | length {:.0}", e.mean_return, e.mean_length)
+    };
     format!(
-        "it {}/{total} {phase} | return {:.2} | length {:.0} | {:.0} samples/s{}",
+        "it {}/{total} {phase} | {episodes} | {:.0} samples/s{}",
         log.iteration,
-        e.mean_return,
-        e.mean_length,
         log.fps,
         if e.diverged > 0 { format!(" | {} diverged", e.diverged) } else { String::new() }
     )
