@@ -1,23 +1,15 @@
 //! The cyclic adversary on the cart-pole: the schedule's phases, frozen networks really frozen, the adversary
 //! learning to hurt a fixed policy, and resume in the middle of phase 2.
 
-use topa_env::tasks::{cartpole, CartPole};
-use topa_env::BatchEnv;
+mod common;
+
+use common::{cartpole_config, cartpole_trainer};
 use trainer::config::TrainConfig;
 use trainer::schedule::Phase;
 use trainer::Trainer;
 
 fn config(seed: u64, p1: usize, p2: usize, p3: usize, cycles: usize) -> TrainConfig {
-    let mut c = TrainConfig::default();
-    c.run.seed = seed;
-    c.run.num_envs = 16;
-    c.run.steps_per_env = 64;
-    c.ppo.learning_rate = 1e-3;
-    c.ppo.desired_kl = 0.01;
-    c.ppo.entropy_coef = 0.0;
-    c.network.actor_hidden = vec![32, 32];
-    c.network.critic_hidden = vec![32, 32];
-    c.losses.decay_coef = 0.0;
+    let mut c = cartpole_config(seed, TrainConfig::default().run.iterations);
     let a = &mut c.adversary;
     (a.phase1_policy_iters, a.phase2_adversary_iters, a.phase3_policy_iters, a.cycles) = (p1, p2, p3, cycles);
     a.hidden = vec![32, 32];
@@ -27,10 +19,7 @@ fn config(seed: u64, p1: usize, p2: usize, p3: usize, cycles: usize) -> TrainCon
 }
 
 fn trainer(cfg: &TrainConfig) -> Trainer {
-    let model = cartpole::model().unwrap();
-    let tasks =
-        (0..cfg.run.num_envs).map(|i| CartPole::new(model.clone(), cfg.run.seed, i as u64, 200).unwrap()).collect();
-    Trainer::new(cfg.clone(), Box::new(BatchEnv::new(tasks, 1).unwrap()), true).unwrap()
+    cartpole_trainer(cfg, true)
 }
 
 fn flat(vars: &[candle_core::Var]) -> Vec<Vec<f32>> {

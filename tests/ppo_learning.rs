@@ -1,38 +1,14 @@
 //! PPO end to end on the tiny cart-pole task: it learns, a seed fixes the run, and resume is exact.
 
-use topa_env::tasks::{cartpole, CartPole};
-use topa_env::BatchEnv;
-use trainer::config::TrainConfig;
+mod common;
+
+use common::{cartpole_config, cartpole_trainer};
 use trainer::Trainer;
-
-fn cartpole_config(seed: u64, iterations: usize) -> TrainConfig {
-    let mut c = TrainConfig::default();
-    c.run.seed = seed;
-    c.run.num_envs = 16;
-    c.run.steps_per_env = 64;
-    c.run.iterations = iterations;
-    c.run.threads = 1;
-    c.ppo.learning_rate = 1e-3;
-    c.ppo.desired_kl = 0.01;
-    c.ppo.entropy_coef = 0.0;
-    c.network.actor_hidden = vec![32, 32];
-    c.network.critic_hidden = vec![32, 32];
-    c.losses.decay_coef = 0.0;
-    c
-}
-
-fn cartpole_trainer(cfg: &TrainConfig) -> Trainer {
-    let model = cartpole::model().unwrap();
-    let tasks =
-        (0..cfg.run.num_envs).map(|i| CartPole::new(model.clone(), cfg.run.seed, i as u64, 200).unwrap()).collect();
-    let env = BatchEnv::new(tasks, 1).unwrap();
-    Trainer::new(cfg.clone(), Box::new(env), false).unwrap()
-}
 
 #[test]
 fn ppo_learns_to_balance_the_cartpole() {
     let cfg = cartpole_config(1, 40);
-    let mut t = cartpole_trainer(&cfg);
+    let mut t = cartpole_trainer(&cfg, false);
     let mut lengths = vec![];
     while let Some(log) = t.iterate().unwrap() {
         eprintln!(
@@ -67,12 +43,12 @@ fn tempdir(tag: &str) -> std::path::PathBuf {
 #[test]
 fn checkpoint_then_resume_equals_the_straight_run_bit_for_bit() {
     let cfg = cartpole_config(3, 6);
-    let mut straight = cartpole_trainer(&cfg);
+    let mut straight = cartpole_trainer(&cfg, false);
     for _ in 0..6 {
         straight.iterate().unwrap();
     }
     let dir = tempdir("resume");
-    let mut first = cartpole_trainer(&cfg);
+    let mut first = cartpole_trainer(&cfg, false);
     for _ in 0..3 {
         first.iterate().unwrap();
     }
@@ -81,7 +57,7 @@ fn checkpoint_then_resume_equals_the_straight_run_bit_for_bit() {
     drop(first);
     let side = trainer::checkpoint::latest(&dir).unwrap();
     let (meta, loaded) = trainer::checkpoint::read_sidecar(&side).unwrap();
-    let mut resumed = cartpole_trainer(&meta.config);
+    let mut resumed = cartpole_trainer(&meta.config, false);
     trainer::checkpoint::restore(&mut resumed, &meta, &loaded).unwrap();
     assert_eq!(resumed.iteration, 3);
     for _ in 0..3 {
@@ -98,7 +74,7 @@ fn checkpoint_then_resume_equals_the_straight_run_bit_for_bit() {
 #[test]
 fn a_corrupt_or_mismatched_checkpoint_is_a_clear_error() {
     let cfg = cartpole_config(4, 1);
-    let mut t = cartpole_trainer(&cfg);
+    let mut t = cartpole_trainer(&cfg, false);
     t.iterate().unwrap();
     let dir = tempdir("corrupt");
     let side = trainer::checkpoint::save(&t, &dir, "test", 0).unwrap();
@@ -116,10 +92,10 @@ fn a_corrupt_or_mismatched_checkpoint_is_a_clear_error() {
     // A checkpoint for another batch size cannot be restored into this run.
     let mut other_cfg = cfg.clone();
     other_cfg.run.num_envs = 8;
-    let mut fresh = cartpole_trainer(&cfg);
+    let mut fresh = cartpole_trainer(&cfg, false);
     trainer::checkpoint::save(&fresh, &dir, "test", 0).unwrap();
     let (meta, loaded) = trainer::checkpoint::read_sidecar(&trainer::checkpoint::latest(&dir).unwrap()).unwrap();
-    let mut small = cartpole_trainer(&other_cfg);
+    let mut small = cartpole_trainer(&other_cfg, false);
     let err = trainer::checkpoint::restore(&mut small, &meta, &loaded).err().unwrap().to_string();
     assert!(err.contains("16 envs") && err.contains("8"), "{err}");
     fresh.iterate().unwrap();

@@ -227,6 +227,8 @@ fn unknown_or_invalid_config_keys_are_clear_errors() {
     assert!(err.contains("ppo.gamma"), "{err}");
     let err = TrainConfig::load(&write("env.toml", "[env.rewards]\nsigma_v = -1.0\n")).unwrap_err().to_string();
     assert!(err.contains("sigma_v"), "{err}");
+    let err = TrainConfig::load(&write("adv.toml", "[adversary]\nattack_share = 1.5\n")).unwrap_err().to_string();
+    assert!(err.contains("adversary.attack_share"), "{err}");
     let ok =
         TrainConfig::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/paper.toml"))).unwrap();
     assert_eq!(ok.run.num_envs, 4096);

@@ -96,6 +96,7 @@ impl Trainer {
             let ac = ActorCritic::new(od, pd, &a.hidden, &a.hidden, net.init_noise_std, &mut rng)?;
             let mut ppo = cfg.ppo.clone();
             ppo.learning_rate = a.learning_rate;
+            ppo.entropy_coef = a.entropy_coef;
             // No symmetry or decay for the adversary: the paper applies them to the locomotion policy.
             let losses = LossConfig { symmetry_coef: 0.0, decay_coef: 0.0 };
             let agent = Agent::new(ac, ppo, losses, None);
@@ -239,7 +240,7 @@ impl Trainer {
                 };
                 self.policy.act(&s.raw_obs, &mut self.rng, false, out)?;
             }
-            // The adversary perturbs (phases 2 and 3), sampling its actions in both.
+            // The adversary perturbs (phases 2 and 3): sampling while it learns; in phase 3 as configured.
             if adversary_acts {
                 let a = self.adversary.as_mut().expect("adversary");
                 if phase == Phase::Adversary {
@@ -262,9 +263,13 @@ impl Trainer {
                         log_probs: &mut s.adv_log_probs,
                         values: &mut s.adv_values,
                     };
-                    a.agent.act(&s.raw_obs, &mut self.rng, true, out)?;
+                    a.agent.act(&s.raw_obs, &mut self.rng, self.cfg.adversary.sample_when_frozen, out)?;
                 }
                 adversary::squash(&s.adv_actions, &a.bounds, &mut s.perturbation);
+                if phase == Phase::PolicyUnderAttack {
+                    let attacked = (self.cfg.adversary.attack_share * n as f64).ceil() as usize;
+                    s.perturbation[attacked.min(n) * pd..].fill(0.0);
+                }
                 let m = adversary::magnitudes(&s.perturbation, pd);
                 for i in 0..3 {
                     magnitude[i] += m[i] / steps as f64;

@@ -1,0 +1,29 @@
+//! The cart-pole set-up shared by the PPO and adversary tests: small networks and batches so a run takes seconds.
+
+use topa_env::tasks::{cartpole, CartPole};
+use topa_env::BatchEnv;
+use trainer::config::TrainConfig;
+use trainer::Trainer;
+
+pub fn cartpole_config(seed: u64, iterations: usize) -> TrainConfig {
+    let mut c = TrainConfig::default();
+    c.run.seed = seed;
+    c.run.num_envs = 16;
+    c.run.steps_per_env = 64;
+    c.run.iterations = iterations;
+    c.run.threads = 1;
+    c.ppo.learning_rate = 1e-3;
+    c.ppo.desired_kl = 0.01;
+    c.ppo.entropy_coef = 0.0;
+    c.network.actor_hidden = vec![32, 32];
+    c.network.critic_hidden = vec![32, 32];
+    c.losses.decay_coef = 0.0;
+    c
+}
+
+pub fn cartpole_trainer(cfg: &TrainConfig, with_adversary: bool) -> Trainer {
+    let model = cartpole::model().unwrap();
+    let tasks =
+        (0..cfg.run.num_envs).map(|i| CartPole::new(model.clone(), cfg.run.seed, i as u64, 200).unwrap()).collect();
+    Trainer::new(cfg.clone(), Box::new(BatchEnv::new(tasks, 1).unwrap()), with_adversary).unwrap()
+}
