@@ -19,6 +19,11 @@ fn register_font() {
     });
 }
 
+/// Axis labels for iterations, returns, steps and newtons: plotters' default prints "1500.0".
+fn whole_number(v: &f64) -> String {
+    format!("{v:.0}")
+}
+
 fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow::anyhow!("plotting: {e:?}")
 }
@@ -69,8 +74,8 @@ fn draw_series(
     chart
         .configure_mesh()
         .x_desc("iteration")
-        .x_label_formatter(&|x| format!("{x:.0}"))
-        .y_label_formatter(&|y| format!("{y:.0}"))
+        .x_label_formatter(&whole_number)
+        .y_label_formatter(&whole_number)
         .label_style(("sans-serif", 16))
         .draw()
         .map_err(err)?;
@@ -135,8 +140,8 @@ where
             .disable_mesh()
             .x_desc("F_x (N), torso frame")
             .y_desc("F_y (N)")
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .y_label_formatter(&|y| format!("{y:.0}"))
+            .x_label_formatter(&whole_number)
+            .y_label_formatter(&whole_number)
             .label_style(("sans-serif", 14))
             .draw()
             .map_err(err)?;

@@ -83,7 +83,7 @@ fn progress_line(log: &IterationLog, total: usize) -> String {
         1 => "phase 1".to_string(),
         p => format!("phase {p} c{}", log.cycle),
     };
-    // Envs reset together (start, fork) time out together: most iterations then end no episode.
+    // Envs that start together (a new run, a fork) also time out together, so most iterations end no episode.
     let episodes = if e.episodes == 0 {
         "no episode ended".to_string()
     } else {
