@@ -158,6 +158,28 @@ enum BenchCmd {
         #[arg(long, hide = true)]
         worker: bool,
     },
+    /// Real training iterations of a preset: samples/s, the collect / inference / update split, and their ratio
+    /// to the bare physics bound measured in the same run.
+    Train {
+        #[arg(long, default_value = "configs/cpu.toml")]
+        config: PathBuf,
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<usize>,
+        /// Override the preset's number of envs.
+        #[arg(long)]
+        envs: Option<usize>,
+        /// Timed iterations per thread count.
+        #[arg(long, default_value_t = 6)]
+        iterations: usize,
+        /// Untimed iterations first.
+        #[arg(long, default_value_t = 2)]
+        warmup: usize,
+        /// Override the preset's integrator (euler, rk4, model, implicit).
+        #[arg(long)]
+        integrator: Option<String>,
+        #[arg(long, hide = true)]
+        worker: bool,
+    },
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
@@ -213,6 +235,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 Ok(())
             } else {
                 bench::ppo::run(&threads, repeats, torch_python.as_deref())
+            }
+        }
+        Cmd::Bench(BenchCmd::Train { config, threads, envs, iterations, warmup, integrator, worker }) => {
+            let a = bench::train::Args { config: &config, threads: &threads, envs, iterations, warmup, integrator };
+            if worker {
+                println!("{}", serde_json::to_string(&bench::train::worker(&a, threads[0])?)?);
+                Ok(())
+            } else {
+                bench::train::run(&a)
             }
         }
         Cmd::Bench(BenchCmd::Env { model, envs, threads, integrator, seconds, rounds }) => {

@@ -153,8 +153,9 @@ fn fatal_error_in_step_is_err_and_data_recovers_while_other_threads_run() {
         let (ok_steps, err) = step_until_error(&mut d, 2000);
         let err = err.unwrap_or_else(|| panic!("round {round}: the tiny stack never overflowed"));
         assert!(ok_steps > 10, "stepping in the air should work before contact (got {ok_steps} steps)");
-        assert!(matches!(err, MujocoError::Fatal { call: "mj_step", .. }), "{err:?}");
-        assert!(err.to_string().contains("Stack overflow"), "MuJoCo's message must come through: {err}");
+        // MuJoCo's "Stack overflow" becomes a capacity error that names the MJCF attribute to raise.
+        assert!(matches!(err, MujocoError::Capacity { call: "mj_step", attribute: "nstack", .. }), "{err:?}");
+        assert!(err.to_string().contains("raise `nstack`"), "the error must name the fix: {err}");
         d.reset().unwrap();
         assert_eq!(d.time(), 0.0);
         for _ in 0..5 {
@@ -163,6 +164,27 @@ fn fatal_error_in_step_is_err_and_data_recovers_while_other_threads_run() {
     }
     assert_eq!(bystander.join().unwrap(), reference);
     assert!(!std::path::Path::new("MUJOCO_LOG.TXT").exists(), "MuJoCo must not write its log file");
+}
+
+#[test]
+fn contacts_or_constraint_rows_beyond_the_size_are_errors_never_silent_truncation() {
+    for (file, attribute, limit) in [("contact_overflow.xml", "nconmax", 3), ("constraint_overflow.xml", "njmax", 6)] {
+        let mut d = Data::new(load(file)).unwrap();
+        let (ok_steps, err) = step_until_error(&mut d, 2000);
+        let err = err.unwrap_or_else(|| panic!("{file}: the boxes landed without overflowing {attribute}"));
+        assert!(ok_steps > 10, "{file}: the boxes fall freely first ({ok_steps} steps)");
+        match &err {
+            MujocoError::Capacity { attribute: a, limit: l, suggested, .. } => {
+                assert_eq!((*a, *l), (attribute, limit), "{err}");
+                assert!(*suggested > limit, "the suggested size must be larger: {err}");
+            }
+            other => panic!("{file}: expected a capacity error, got {other:?}"),
+        }
+        assert!(err.to_string().contains(&format!("raise `{attribute}`")), "{err}");
+    }
+    // The same scene with MuJoCo's default sizes lands without error.
+    let mut d = Data::new(load("boxes.xml")).unwrap();
+    assert_eq!(step_until_error(&mut d, 2000).1, None);
 }
 
 #[test]

@@ -169,7 +169,8 @@ impl Data {
     pub fn step(&mut self) -> Result<()> {
         let (m, d) = self.parts();
         // SAFETY: d was made for m.
-        guarded("mj_step", |e, n| unsafe { guard::topa_step(m, d, e, n) })
+        let r = guarded("mj_step", |e, n| unsafe { guard::topa_step(m, d, e, n) });
+        self.check_capacity("mj_step", r)
     }
 
     /// First half of a step (positions and velocities), so controls can depend on them.
@@ -181,13 +182,54 @@ impl Data {
     /// Second half of a step (forces, acceleration, integration).
     pub fn step2(&mut self) -> Result<()> {
         let (m, d) = self.parts();
-        guarded("mj_step2", |e, n| unsafe { guard::topa_step2(m, d, e, n) })
+        let r = guarded("mj_step2", |e, n| unsafe { guard::topa_step2(m, d, e, n) });
+        self.check_capacity("mj_step2", r)
     }
 
     /// Computes everything derived from the state without integrating (`mj_forward`).
     pub fn forward(&mut self) -> Result<()> {
         let (m, d) = self.parts();
-        guarded("mj_forward", |e, n| unsafe { guard::topa_forward(m, d, e, n) })
+        let r = guarded("mj_forward", |e, n| unsafe { guard::topa_forward(m, d, e, n) });
+        self.check_capacity("mj_forward", r)
+    }
+
+    /// Turns MuJoCo's silent truncations (contacts or constraint rows beyond the model's `<size>`, raised only as
+    /// warnings) and its stack-overflow error into `MujocoError::Capacity`, which names the `<size>` attribute.
+    fn check_capacity(&self, call: &'static str, r: Result<()>) -> Result<()> {
+        let m = self.model.raw();
+        let err = |what, limit: i32, attribute, needed: i32| MujocoError::Capacity {
+            model: self.model.name().to_string(),
+            call,
+            what,
+            limit: limit as usize,
+            attribute,
+            suggested: (needed.max(limit) as usize * 3).div_ceil(2),
+        };
+        match r {
+            Err(MujocoError::Fatal { message, .. }) if message.contains("Stack overflow") => {
+                Err(err("the solver's stack", m.nstack, "nstack", self.raw().maxuse_stack.max(m.nstack)))
+            }
+            Err(e) => Err(e),
+            Ok(()) if self.warning_count(Warning::ContactFull) > 0 => {
+                Err(err("the number of contacts", m.nconmax, "nconmax", self.raw().ncon))
+            }
+            Ok(()) if self.warning_count(Warning::ConstraintFull) > 0 => {
+                Err(err("the number of constraint rows", m.njmax, "njmax", self.raw().nefc))
+            }
+            Ok(()) => Ok(()),
+        }
+    }
+
+    /// Bytes this `Data` holds: its buffer and its stack (the model's are `Model::memory_bytes`).
+    pub fn memory_bytes(&self) -> usize {
+        let d = self.raw();
+        std::mem::size_of::<mjData>() + d.nbuffer as usize + d.nstack as usize * std::mem::size_of::<f64>()
+    }
+
+    /// The most stack (in mjtNum), contacts and constraint rows used since the last reset.
+    pub fn max_use(&self) -> (usize, usize, usize) {
+        let d = self.raw();
+        (d.maxuse_stack as usize, d.maxuse_con as usize, d.maxuse_efc as usize)
     }
 
     /// Back to `qpos0`, zero velocity, zero controls, warnings cleared.

@@ -22,6 +22,20 @@ pub enum MujocoError {
     /// A fatal `mju_error` raised inside a MuJoCo call; the `Data` must be reset before it is used again.
     #[error("MuJoCo error in {call}: {message}")]
     Fatal { call: &'static str, message: String },
+    /// The memory the model preallocates (the MJCF's `<size>`) is too small for what the simulation needed. MuJoCo
+    /// would drop the extra contacts or constraint rows silently; we refuse instead.
+    #[error(
+        "model '{model}': {what} exceeded its preallocated size ({limit}) in {call}: raise `{attribute}` in the \
+         MJCF's <size> element (e.g. to {suggested})"
+    )]
+    Capacity {
+        model: String,
+        call: &'static str,
+        what: &'static str,
+        limit: usize,
+        attribute: &'static str,
+        suggested: usize,
+    },
     /// A name that the model does not define.
     #[error("model '{model}' has no {kind} named '{name}'{hint}")]
     NotFound { model: String, kind: ObjType, name: String, hint: String },

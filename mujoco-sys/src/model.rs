@@ -67,6 +67,11 @@ impl Model {
             .ok_or_else(|| MujocoError::Fatal { call: "mj_copyModel", message: "allocation failed".into() })
     }
 
+    /// Bytes this model holds (its struct and its buffer).
+    pub fn memory_bytes(&self) -> usize {
+        std::mem::size_of::<mjModel>() + self.raw().nbuffer as usize
+    }
+
     /// The raw struct, for reading anything the safe layer does not wrap.
     pub fn raw(&self) -> &mjModel {
         // SAFETY: the pointer is valid for the model's lifetime.
@@ -155,6 +160,20 @@ impl Model {
     pub fn set_integrator(&mut self, integrator: Integrator) {
         // SAFETY: a parameter value, not a size.
         unsafe { self.raw_mut().opt.integrator = integrator as i32 };
+    }
+
+    /// Whether `mj_step`/`mj_forward` compute the sensors (`sensordata`).
+    pub fn sensors_enabled(&self) -> bool {
+        self.raw().opt.disableflags & ffi::mjDSBL_SENSOR as i32 == 0
+    }
+
+    /// Turns sensor evaluation on or off. Off skips work the dynamics never reads (the accelerometer alone needs a
+    /// second recursive Newton–Euler pass every step); `sensordata` then keeps stale values.
+    pub fn set_sensors_enabled(&mut self, on: bool) {
+        let bit = ffi::mjDSBL_SENSOR as i32;
+        // SAFETY: a parameter value, not a size.
+        let flags = unsafe { &mut self.raw_mut().opt.disableflags };
+        *flags = if on { *flags & !bit } else { *flags | bit };
     }
 
     /// Total mass of all bodies (kg).

@@ -11,7 +11,7 @@ use rand_chacha::ChaCha8Rng;
 use topa_env::{assets, EnvConfig, ModelKind, VecEnv};
 
 /// Single-thread mj_step/s of the model the envs use, stepping the stand pose with small random targets.
-fn physics_steps_per_second(cfg: &EnvConfig, seconds: f64) -> Result<f64> {
+pub fn physics_steps_per_second(cfg: &EnvConfig, seconds: f64) -> Result<f64> {
     let batch = assets::topa_batch(cfg, 1, 0, 1)?;
     let env = &batch.tasks()[0];
     let model = env.data().model_arc().clone();

@@ -3,3 +3,4 @@
 pub mod env;
 pub mod physics;
 pub mod ppo;
+pub mod train;

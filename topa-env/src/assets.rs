@@ -50,6 +50,7 @@ pub fn topa_batch_on(
         Arc::make_mut(&mut model).set_integrator(i);
     }
     Arc::make_mut(&mut model).set_timestep(cfg.timestep)?;
+    Arc::make_mut(&mut model).set_sensors_enabled(cfg.needs_sensors());
     let cfg = Arc::new(cfg.clone());
     let idx = Arc::new(RobotIndices::resolve(&model, cfg.model)?);
     let envs = (0..n)

@@ -126,9 +126,23 @@ pub struct RewardConfig {
     /// Clip each step's total reward at zero from below (legged_gym's `only_positive_rewards`), so that early
     /// in training, when penalties dominate, ending an episode early never pays. Not in the paper; off by default.
     pub only_positive_rewards: bool,
-    /// Feet air time as printed in the paper, Σ|t_air − target| at touchdown ("abs"), or legged_gym's
-    /// Σ(t_air − target) ("signed"), which rewards long steps and penalises shuffling.
-    pub air_time_form: String,
+    /// How the feet-air-time term turns a touchdown's air time into reward (see `AirTimeForm`).
+    pub air_time_form: AirTimeForm,
+}
+
+/// The feet-air-time equation. The paper prints Σ|t_air − 0.5|·𝟙_touchdown with weight +0.5, which pays most for
+/// the shortest steps (≈ 0.46 per 40 ms shuffle step) as well as for the longest.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AirTimeForm {
+    /// The paper's equation as printed: Σ|t_air − target|.
+    Abs,
+    /// legged_gym's Σ(t_air − target), only while a motion is commanded (‖c‖ > 0.1): steps shorter than the
+    /// target cost, longer ones pay.
+    Signed,
+    /// The paper's equation with its sign turned: −Σ|t_air − target| (with the positive weight, a penalty that is
+    /// zero for steps of exactly the target air time).
+    NegAbs,
 }
 
 impl Default for RewardConfig {
@@ -163,7 +177,7 @@ impl Default for RewardConfig {
             soft_torque_limit: 0.8,
             scale_by_dt: true,
             only_positive_rewards: false,
-            air_time_form: "abs".into(),
+            air_time_form: AirTimeForm::Abs,
         }
     }
 }
@@ -213,11 +227,26 @@ pub struct PushConfig {
     pub velocity: [f64; 2],
     /// Time between kicks, s.
     pub interval_s: f64,
+    /// Curriculum: the largest kick grows linearly from `curriculum_start` m/s to `velocity[1]` over the first
+    /// `curriculum_s` seconds of each env's experience (0 = no curriculum: the full range from the start).
+    pub curriculum_start: f64,
+    pub curriculum_s: f64,
 }
 
 impl Default for PushConfig {
     fn default() -> Self {
-        PushConfig { enabled: true, velocity: [0.0, 2.5], interval_s: 8.0 }
+        PushConfig { enabled: true, velocity: [0.0, 2.5], interval_s: 8.0, curriculum_start: 0.0, curriculum_s: 0.0 }
+    }
+}
+
+impl PushConfig {
+    /// The largest kick after `experience_s` seconds of an env's experience.
+    pub fn max_velocity(&self, experience_s: f64) -> f64 {
+        if self.curriculum_s <= 0.0 {
+            return self.velocity[1];
+        }
+        let f = (experience_s / self.curriculum_s).min(1.0);
+        self.curriculum_start + (self.velocity[1] - self.curriculum_start) * f
     }
 }
 
@@ -285,12 +314,6 @@ impl EnvConfig {
         ] {
             check_positive(name, v)?;
         }
-        if !["abs", "signed"].contains(&r.air_time_form.as_str()) {
-            return Err(EnvError::Config(format!(
-                "rewards.air_time_form must be \"abs\" or \"signed\", got '{}'",
-                r.air_time_form
-            )));
-        }
         check_range("domain_rand.friction_scale", self.domain_rand.friction_scale)?;
         check_range("domain_rand.mass_scale", self.domain_rand.mass_scale)?;
         if self.domain_rand.mass_scale[0] <= 0.0 || self.domain_rand.friction_scale[0] <= 0.0 {
@@ -298,6 +321,13 @@ impl EnvConfig {
         }
         check_range("push.velocity", self.push.velocity)?;
         check_positive("push.interval_s", self.push.interval_s)?;
+        let p = &self.push;
+        if !(p.curriculum_s >= 0.0 && p.curriculum_start >= p.velocity[0] && p.curriculum_start <= p.velocity[1]) {
+            return Err(EnvError::Config(format!(
+                "push.curriculum_start must lie in push.velocity {:?} and push.curriculum_s must be ≥ 0",
+                p.velocity
+            )));
+        }
         check_positive("termination.max_tilt", self.termination.max_tilt)?;
         Ok(())
     }
@@ -314,6 +344,12 @@ impl EnvConfig {
                 "integrator '{other}' is unknown: use \"model\", \"euler\", \"rk4\" or \"implicit\""
             ))),
         }
+    }
+
+    /// Whether the env reads MuJoCo's sensors (the IMU). The paper's observation comes from the simulator's state,
+    /// so sensors are skipped unless a consumer of them is configured.
+    pub fn needs_sensors(&self) -> bool {
+        false
     }
 
     /// The policy period, s.

@@ -49,6 +49,8 @@ pub struct TopaEnv {
     ctrl_range: [[f64; 2]; N_MOTORS],
     joint_soft_limits: [[f64; 2]; N_MOTORS],
     torque_soft_limit: [f64; N_MOTORS],
+    /// Policy steps this env has run since it was made (drives the push curriculum).
+    experience_steps: u64,
     // Episode state.
     step_count: usize,
     command: [f64; 3],
@@ -61,6 +63,10 @@ pub struct TopaEnv {
     next_push: usize,
     terms: [f64; N_TERMS],
     robot_state: RobotState,
+    /// Time spent in `mj_step` since `take_physics_ns`.
+    physics_ns: u64,
+    /// A capacity error of the last step (the run must stop: resetting would hide a model that is too small).
+    fatal: Option<EnvError>,
 }
 
 impl TopaEnv {
@@ -81,12 +87,16 @@ impl TopaEnv {
         index: u64,
     ) -> Result<Self> {
         let integrator = cfg.integrator()?;
-        if model.timestep() != cfg.timestep || integrator.is_some_and(|i| i != model.integrator()) {
+        if model.timestep() != cfg.timestep
+            || integrator.is_some_and(|i| i != model.integrator())
+            || model.sensors_enabled() != cfg.needs_sensors()
+        {
             let m = Arc::make_mut(&mut model);
             m.set_timestep(cfg.timestep)?;
             if let Some(i) = integrator {
                 m.set_integrator(i);
             }
+            m.set_sensors_enabled(cfg.needs_sensors());
         }
         let nominal = Arc::new(Nominal {
             body_mass: model.body_mass().to_vec(),
@@ -114,6 +124,7 @@ impl TopaEnv {
             idx,
             nominal,
             rng,
+            experience_steps: 0,
             step_count: 0,
             command: [0.0; 3],
             command_override: None,
@@ -125,6 +136,8 @@ impl TopaEnv {
             next_push: 0,
             terms: [0.0; N_TERMS],
             robot_state: RobotState::default(),
+            physics_ns: 0,
+            fatal: None,
         })
     }
 
@@ -252,7 +265,8 @@ impl TopaEnv {
     }
 
     fn push(&mut self) {
-        let [lo, hi] = self.cfg.push.velocity;
+        let lo = self.cfg.push.velocity[0];
+        let hi = self.cfg.push.max_velocity(self.experience_steps as f64 * self.cfg.policy_dt());
         let mag = if hi > lo { self.rng.random_range(lo..=hi) } else { lo };
         let dir = self.rng.random_range(0.0..std::f64::consts::TAU);
         let dof = self.idx.base_dof;
@@ -276,13 +290,20 @@ impl TopaEnv {
 
     /// Physics steps with the current ctrl; Err or blow-up → false.
     fn simulate(&mut self) -> bool {
+        let start = std::time::Instant::now();
+        let mut ok = true;
         for _ in 0..self.cfg.decimation {
             self.apply_forces();
-            if self.data.step().is_err() {
-                return false;
+            if let Err(e) = self.data.step() {
+                if matches!(e, mujoco_sys::MujocoError::Capacity { .. }) {
+                    self.fatal = Some(e.into());
+                }
+                ok = false;
+                break;
             }
         }
-        !self.data.is_unstable()
+        self.physics_ns += start.elapsed().as_nanos() as u64;
+        ok && !self.data.is_unstable()
     }
 }
 
@@ -344,6 +365,7 @@ impl Task for TopaEnv {
             return StepOutcome { reward: 0.0, done: true, time_out: false, diverged: true };
         }
         self.step_count += 1;
+        self.experience_steps += 1;
         self.robot_state = state::read(&self.data, &self.idx);
         let dt = self.cfg.policy_dt();
         // Contact with a one-step memory, as legged_gym does: a single missed contact is not a touchdown.
@@ -417,6 +439,14 @@ impl Task for TopaEnv {
         self.perturbation.torso_force_local = torso;
     }
 
+    fn take_fatal(&mut self) -> Option<EnvError> {
+        self.fatal.take()
+    }
+
+    fn take_physics_ns(&mut self) -> u64 {
+        std::mem::take(&mut self.physics_ns)
+    }
+
     fn save_state(&self, f: &mut Vec<f64>, u: &mut Vec<u64>) {
         let d = &self.data;
         for arr in [d.qpos(), d.qvel(), d.act(), d.ctrl(), d.qacc_warmstart()] {
@@ -437,6 +467,7 @@ impl Task for TopaEnv {
         f.extend_from_slice(&self.air_time);
         u.extend([self.step_count as u64, self.next_resample as u64, self.next_push as u64, o.is_some() as u64]);
         u.extend(self.last_contact.map(|c| c as u64));
+        u.push(self.experience_steps);
         task::save_rng(&self.rng, u);
     }
 
@@ -500,14 +531,15 @@ impl Task for TopaEnv {
         };
         self.last_action.copy_from_slice(take(N_MOTORS)?);
         self.air_time.copy_from_slice(take(2)?);
-        let need = 6 + task::RNG_WORDS;
+        let need = 7 + task::RNG_WORDS;
         let w = u.get(..need).ok_or_else(|| EnvError::Shape("env snapshot too short".into()))?;
         self.step_count = w[0] as usize;
         self.next_resample = w[1] as usize;
         self.next_push = w[2] as usize;
         self.command_override = (w[3] != 0).then_some(over);
         self.last_contact = [w[4] != 0, w[5] != 0];
-        self.rng = task::load_rng(&w[6..]);
+        self.experience_steps = w[6];
+        self.rng = task::load_rng(&w[7..]);
         // Derived quantities (contacts, velocities) for the observation and the next reward.
         self.data.forward()?;
         self.robot_state = state::read(&self.data, &self.idx);

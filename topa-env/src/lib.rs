@@ -22,4 +22,4 @@ pub use perturb::Perturbation;
 pub use robot::ModelKind;
 pub use symmetry::{SignedPermutation, Symmetry};
 pub use task::{StepOutcome, Task};
-pub use vec_env::{BatchEnv, EnvSnapshot, EpisodeStats, VecEnv};
+pub use vec_env::{BatchEnv, EnvSnapshot, EpisodeStats, StepTiming, VecEnv};

@@ -1,7 +1,7 @@
 //! The paper's 14 reward terms (Table "Rewards"), computed from a plain snapshot of the state so that each term
 //! can be checked on hand-made states.
 
-use crate::config::RewardConfig;
+use crate::config::{AirTimeForm, RewardConfig};
 use crate::robot::{ANKLE, HIP_ROLL, HIP_YAW, N_LEG, N_MOTORS};
 
 pub const N_TERMS: usize = 14;
@@ -75,8 +75,13 @@ pub fn raw_terms(c: &RewardConfig, x: &RewardInputs) -> [f64; N_TERMS] {
         .sum();
     let torque: f64 = (0..N_MOTORS).map(|i| relu(x.motor_torque[i].abs() - x.torque_soft_limit[i])).sum();
     let slip: f64 = (0..2).filter(|&f| x.foot_contact[f]).map(|f| x.foot_speed[f]).sum();
-    let air_term =
-        |t: f64| if c.air_time_form == "signed" { t - c.air_time_target } else { (t - c.air_time_target).abs() };
+    let moving = x.command.iter().map(|v| v * v).sum::<f64>().sqrt() > 0.1;
+    let air_term = |t: f64| match c.air_time_form {
+        AirTimeForm::Abs => (t - c.air_time_target).abs(),
+        AirTimeForm::Signed if moving => t - c.air_time_target,
+        AirTimeForm::Signed => 0.0,
+        AirTimeForm::NegAbs => -(t - c.air_time_target).abs(),
+    };
     let air: f64 = (0..2).filter(|&f| x.touchdown[f]).map(|f| air_term(x.air_time[f])).sum();
     [
         kernel(sq(x.command[0] - x.lin_vel[0]) + sq(x.command[1] - x.lin_vel[1]), c.sigma_v),
@@ -199,6 +204,17 @@ mod tests {
         e(r[11], 4.0);
         e(r[12], 0.3);
         e(r[13], 0.3);
+        let form = |f| RewardConfig { air_time_form: f, ..c.clone() };
+        e(raw_terms(&form(AirTimeForm::Signed), &x)[13], -0.3);
+        e(raw_terms(&form(AirTimeForm::NegAbs), &x)[13], -0.3);
+        x.air_time[1] = 0.7;
+        e(raw_terms(&form(AirTimeForm::Signed), &x)[13], 0.2);
+        e(raw_terms(&form(AirTimeForm::NegAbs), &x)[13], -0.2);
+        // legged_gym's form pays nothing while the command is "stand still".
+        let mut standing = x.clone();
+        standing.command = [0.0; 3];
+        e(raw_terms(&form(AirTimeForm::Signed), &standing)[13], 0.0);
+        x.air_time[1] = 0.2;
         let mut out = [0.0; N_TERMS];
         let total = weighted_terms(&c, &x, 0.02, &mut out);
         e(out[2], -0.09 * 0.02); // weight −1 × v_z² × dt

@@ -39,6 +39,15 @@ pub trait Task: Send {
     fn save_state(&self, f64s: &mut Vec<f64>, u64s: &mut Vec<u64>);
     /// Restores what `save_state` wrote; returns how many of each it consumed.
     fn load_state(&mut self, f64s: &[f64], u64s: &[u64]) -> Result<(usize, usize)>;
+    /// An error that must stop the run rather than reset the env (a model too small for the simulation), raised
+    /// during the last `step`.
+    fn take_fatal(&mut self) -> Option<crate::error::EnvError> {
+        None
+    }
+    /// Nanoseconds spent inside the physics engine since the last call (0 if the task does not measure it).
+    fn take_physics_ns(&mut self) -> u64 {
+        0
+    }
 }
 
 /// Serialises a ChaCha RNG's position (seed, stream, word position) as u64 words.

@@ -2,6 +2,8 @@
 //! flat f32 buffers and no allocation per step. Each task owns its random stream, so the result of a seed does
 //! not depend on the thread count.
 
+use std::time::Instant;
+
 use rayon::prelude::*;
 
 use crate::error::{EnvError, Result};
@@ -20,6 +22,19 @@ pub struct EpisodeStats {
     pub mean_terms: Vec<f64>,
     /// Envs reset because their simulation failed or blew up.
     pub diverged: usize,
+}
+
+/// Where the time of `step` went since the last `take_step_timing` (for `topa bench train`).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepTiming {
+    /// Calls of `step`.
+    pub steps: u64,
+    /// Wall time of `step`, s.
+    pub wall_s: f64,
+    /// Summed over envs (CPU time on the workers): stepping the tasks, of which physics, and resetting them, s.
+    pub task_s: f64,
+    pub physics_s: f64,
+    pub reset_s: f64,
 }
 
 pub trait VecEnv: Send {
@@ -49,6 +64,10 @@ pub trait VecEnv: Send {
     /// The complete state of all envs (to resume bit for bit).
     fn save_state(&self) -> EnvSnapshot;
     fn load_state(&mut self, s: &EnvSnapshot) -> Result<()>;
+    /// Where `step`'s time went since the last call.
+    fn take_step_timing(&mut self) -> StepTiming {
+        StepTiming::default()
+    }
 }
 
 /// A batch's state: per-env f64 and u64 rows of fixed width, plus the observation buffer.
@@ -90,6 +109,9 @@ pub struct BatchEnv<T: Task> {
     time_outs: Vec<f32>,
     /// Per-env flags set during a step (episode ended, and how), reduced afterwards.
     ended: Vec<(bool, bool, bool)>,
+    /// Per-env (step, physics, reset) nanoseconds of the last step, reduced afterwards.
+    times: Vec<[u64; 3]>,
+    timing: StepTiming,
     finished: Finished,
     pool: Option<rayon::ThreadPool>,
     obs_dim: usize,
@@ -122,6 +144,8 @@ impl<T: Task> BatchEnv<T> {
             dones: vec![0.0; n],
             time_outs: vec![0.0; n],
             ended: vec![(false, false, false); n],
+            times: vec![[0; 3]; n],
+            timing: StepTiming::default(),
             finished: Finished { terms: vec![0.0; nterms], ..Default::default() },
             pool,
             obs_dim,
@@ -168,8 +192,20 @@ impl<T: Task> VecEnv for BatchEnv<T> {
         if actions.len() != n * ad {
             return Err(EnvError::Shape(format!("actions hold {} values, expected {n} envs × {ad}", actions.len())));
         }
+        let start = Instant::now();
         let BatchEnv {
-            tasks, episodes, obs, terminal_obs, rewards, dones, time_outs, ended, reset_errors, pool, ..
+            tasks,
+            episodes,
+            obs,
+            terminal_obs,
+            rewards,
+            dones,
+            time_outs,
+            ended,
+            times,
+            reset_errors,
+            pool,
+            ..
         } = self;
         let work = || {
             tasks
@@ -182,9 +218,15 @@ impl<T: Task> VecEnv for BatchEnv<T> {
                 .zip(dones.par_iter_mut())
                 .zip(time_outs.par_iter_mut())
                 .zip(ended.par_iter_mut())
+                .zip(times.par_iter_mut())
                 .zip(reset_errors.par_iter_mut())
-                .for_each(|(((((((((t, a), o), term), e), r), d), to), end), err)| {
+                .for_each(|((((((((((t, a), o), term), e), r), d), to), end), tm), err)| {
+                    let t0 = Instant::now();
                     let out = t.step(a, o);
+                    let t1 = Instant::now();
+                    if let Some(x) = t.take_fatal() {
+                        *err = Some(x);
+                    }
                     e.ret += out.reward;
                     e.len += 1;
                     for (sum, v) in e.terms.iter_mut().zip(t.terms()) {
@@ -194,15 +236,25 @@ impl<T: Task> VecEnv for BatchEnv<T> {
                     *d = if out.done { 1.0 } else { 0.0 };
                     *to = if out.time_out && !out.diverged { 1.0 } else { 0.0 };
                     *end = (out.done, out.time_out && !out.diverged, out.diverged);
+                    let mut reset_ns = 0;
                     if out.done {
                         term.copy_from_slice(o);
                         if let Err(x) = t.reset(o) {
                             *err = Some(x);
                         }
+                        reset_ns = t1.elapsed().as_nanos() as u64;
                     }
+                    *tm = [(t1 - t0).as_nanos() as u64, t.take_physics_ns(), reset_ns];
                 })
         };
         run_on(pool, work);
+        let tm = &mut self.timing;
+        tm.steps += 1;
+        tm.wall_s += start.elapsed().as_secs_f64();
+        let sum = self.times.iter().fold([0u64; 3], |a, t| [a[0] + t[0], a[1] + t[1], a[2] + t[2]]);
+        tm.task_s += (sum[0] + sum[2]) as f64 * 1e-9;
+        tm.physics_s += sum[1] as f64 * 1e-9;
+        tm.reset_s += sum[2] as f64 * 1e-9;
         self.collect_finished()
     }
 
@@ -277,6 +329,10 @@ impl<T: Task> VecEnv for BatchEnv<T> {
             }
         }
         s
+    }
+
+    fn take_step_timing(&mut self) -> StepTiming {
+        std::mem::take(&mut self.timing)
     }
 
     fn load_state(&mut self, s: &EnvSnapshot) -> Result<()> {

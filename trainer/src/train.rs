@@ -7,7 +7,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use topa_env::{EpisodeStats, VecEnv};
+use topa_env::{EpisodeStats, StepTiming, VecEnv};
 
 use crate::actor_critic::ActorCritic;
 use crate::adversary;
@@ -37,6 +37,8 @@ pub struct IterationLog {
     /// Environment samples per second over this iteration (collection + update).
     pub fps: f64,
     pub episodes: EpisodeStats,
+    /// Where the environments' stepping time went (physics, resets, the rest).
+    pub env_timing: StepTiming,
     /// Mean reward per step over the rollout (the policy's task reward, under attack in phase 3).
     pub mean_step_reward: f64,
     pub policy: Option<UpdateStats>,
@@ -175,6 +177,7 @@ impl Trainer {
             update_s,
             fps: n as f64 / elapsed,
             episodes: self.env.take_episode_stats(),
+            env_timing: self.env.take_step_timing(),
             mean_step_reward,
             policy: policy_stats,
             adversary: adversary_stats,

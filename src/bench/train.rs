@@ -1,0 +1,196 @@
+//! `topa bench train`: real training iterations of a preset, timed part by part — collection (env stepping,
+//! of which physics and resets; inference; the serial rest) and the update — beside the bare physics bound
+//! measured in the same run at the preset's integrator and timestep.
+//!
+//! Two bounds are printed. The *standing* bound is the issue's: bare `mj_step` on one Data holding the stand pose
+//! under small random targets, × threads ÷ decimation. The *in-run* bound divides the env-steps by the CPU time
+//! the workers actually spent inside `mj_step` (÷ threads): the same states, contacts and solver work as the
+//! rollout, so its ratio is exactly the share of collection that is physics.
+//!
+//! Thread counts are fixed once per process, so each count runs in a child process (`--worker`).
+
+use std::process::Command;
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+use trainer::{TrainConfig, Trainer};
+
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct WorkerResult {
+    pub threads: usize,
+    pub envs: usize,
+    pub iterations: usize,
+    /// Samples (env-steps) per iteration.
+    pub samples: usize,
+    /// Means over the timed iterations, s.
+    pub iteration_s: f64,
+    pub collect_s: f64,
+    pub inference_s: f64,
+    pub update_s: f64,
+    /// Wall time of the batched env steps, and the workers' CPU time inside them (physics, resets, the rest).
+    pub env_wall_s: f64,
+    pub task_cpu_s: f64,
+    pub physics_cpu_s: f64,
+    pub reset_cpu_s: f64,
+    /// Episodes that ended per iteration (resets).
+    pub episodes: f64,
+    /// Bare mj_step/s on one thread (stand pose), measured in this worker before training.
+    pub standing_steps_per_s: f64,
+    pub decimation: usize,
+}
+
+pub struct Args<'a> {
+    pub config: &'a std::path::Path,
+    pub threads: &'a [usize],
+    pub envs: Option<usize>,
+    pub iterations: usize,
+    pub warmup: usize,
+    pub integrator: Option<String>,
+}
+
+/// One measurement in this process: `warmup` untimed iterations, then `iterations` timed ones.
+pub fn worker(a: &Args, threads: usize) -> Result<WorkerResult> {
+    trainer::nn::init_threads(threads)?;
+    let mut cfg = TrainConfig::load(a.config)?;
+    cfg.run.threads = threads;
+    if let Some(n) = a.envs {
+        cfg.run.num_envs = n;
+    }
+    if let Some(i) = &a.integrator {
+        cfg.env.integrator = i.clone();
+    }
+    let standing = super::env::physics_steps_per_second(&cfg.env, 2.0)?;
+    let env = crate::train_cmd::topa_env(&cfg)?;
+    let mut t = Trainer::new(cfg.clone(), env, false)?;
+    for _ in 0..a.warmup {
+        t.iterate()?.context("warm-up iteration")?;
+    }
+    let mut r = WorkerResult {
+        threads,
+        envs: cfg.run.num_envs,
+        iterations: a.iterations,
+        samples: cfg.run.num_envs * cfg.run.steps_per_env,
+        standing_steps_per_s: standing,
+        decimation: cfg.env.decimation,
+        ..Default::default()
+    };
+    for _ in 0..a.iterations {
+        let start = Instant::now();
+        let log = t.iterate()?.context("iteration")?;
+        r.iteration_s += start.elapsed().as_secs_f64();
+        r.collect_s += log.collect_s;
+        r.inference_s += log.inference_s;
+        r.update_s += log.update_s;
+        let e = log.env_timing;
+        r.env_wall_s += e.wall_s;
+        r.task_cpu_s += e.task_s;
+        r.physics_cpu_s += e.physics_s;
+        r.reset_cpu_s += e.reset_s;
+        r.episodes += (log.episodes.episodes + log.episodes.diverged) as f64;
+    }
+    let k = a.iterations.max(1) as f64;
+    for v in [
+        &mut r.iteration_s,
+        &mut r.collect_s,
+        &mut r.inference_s,
+        &mut r.update_s,
+        &mut r.env_wall_s,
+        &mut r.task_cpu_s,
+        &mut r.physics_cpu_s,
+        &mut r.reset_cpu_s,
+        &mut r.episodes,
+    ] {
+        *v /= k;
+    }
+    Ok(r)
+}
+
+fn run_worker(a: &Args, threads: usize) -> Result<WorkerResult> {
+    let exe = std::env::current_exe()?;
+    let mut cmd = Command::new(exe);
+    cmd.args(["bench", "train", "--worker", "--config"]).arg(a.config);
+    cmd.args(["--threads", &threads.to_string(), "--iterations", &a.iterations.to_string()]);
+    cmd.args(["--warmup", &a.warmup.to_string()]);
+    if let Some(n) = a.envs {
+        cmd.args(["--envs", &n.to_string()]);
+    }
+    if let Some(i) = &a.integrator {
+        cmd.args(["--integrator", i]);
+    }
+    let out = cmd.output()?;
+    if !out.status.success() {
+        bail!("bench worker ({threads} threads) failed: {}", String::from_utf8_lossy(&out.stderr));
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text.lines().last().context("bench worker printed nothing")?;
+    Ok(serde_json::from_str(line)?)
+}
+
+pub fn run(a: &Args) -> Result<()> {
+    let cfg = TrainConfig::load(a.config)?;
+    let envs = a.envs.unwrap_or(cfg.run.num_envs);
+    let integ = a.integrator.clone().unwrap_or(cfg.env.integrator.clone());
+    println!(
+        "{}: {envs} envs × {} steps, integrator {integ}, timestep {} s × {}; {} timed iterations after {} warm-up\n",
+        a.config.display(),
+        cfg.run.steps_per_env,
+        cfg.env.timestep,
+        cfg.env.decimation,
+        a.iterations,
+        a.warmup
+    );
+    let start = Instant::now();
+    let results = a.threads.iter().map(|&t| run_worker(a, t)).collect::<Result<Vec<_>>>()?;
+    println!("| threads | samples/s | iteration (s) | collect (s) | env step (s) | inference (s) | serial rest (s) | update (s) |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in &results {
+        println!(
+            "| {} | {:.0} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
+            r.threads,
+            r.samples as f64 / r.iteration_s,
+            r.iteration_s,
+            r.collect_s,
+            r.env_wall_s,
+            r.inference_s,
+            r.collect_s - r.env_wall_s - r.inference_s,
+            r.update_s
+        );
+    }
+    println!(
+        "\nworkers' CPU in env steps, per iteration: physics / resets / the rest (s), and the bounds (env-steps/s):\n"
+    );
+    println!("| threads | physics | resets (episodes) | rest | standing bound | in-run bound | collect ratio (standing / in-run) | end-to-end ratio (standing / in-run) |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in &results {
+        let t = r.threads as f64;
+        let standing = r.standing_steps_per_s / r.decimation as f64 * t;
+        let in_run = r.samples as f64 / (r.physics_cpu_s / t);
+        let collect = r.samples as f64 / r.collect_s;
+        let e2e = r.samples as f64 / r.iteration_s;
+        println!(
+            "| {} | {:.3} | {:.3} ({:.0}) | {:.3} | {:.0} | {:.0} | {:.3} / {:.3} | {:.3} / {:.3} |",
+            r.threads,
+            r.physics_cpu_s,
+            r.reset_cpu_s,
+            r.episodes,
+            r.task_cpu_s - r.physics_cpu_s - r.reset_cpu_s,
+            standing,
+            in_run,
+            collect / standing,
+            collect / in_run,
+            e2e / standing,
+            e2e / in_run
+        );
+    }
+    if let (Some(one), Some(two)) = (results.iter().find(|r| r.threads == 1), results.iter().find(|r| r.threads == 2)) {
+        println!(
+            "\n2 threads vs 1: collect {:.2}×, end-to-end {:.2}× (goal ≥ 1.9× for collect)",
+            one.collect_s / two.collect_s,
+            one.iteration_s / two.iteration_s
+        );
+    }
+    println!("goals: collect ≥ 0.85 of the bound; end-to-end (configs/cpu.toml) ≥ 0.45 of the bound");
+    eprintln!("bench took {:.0} s", start.elapsed().as_secs_f64());
+    Ok(())
+}
