@@ -236,5 +236,15 @@ fn unknown_or_invalid_config_keys_are_clear_errors() {
     let cpu =
         TrainConfig::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/cpu.toml"))).unwrap();
     assert_eq!(cpu.env.rewards, ok.env.rewards, "the CPU preset keeps the paper's rewards");
+    // `base`: a file holds only what it changes; tables merge key by key; unknown keys still fail, in either file.
+    write("base.toml", "[run]\nnum_envs = 64\nseed = 3\n[env.rewards]\nsigma_v = 0.5\n");
+    let child = TrainConfig::load(&write("child.toml", "base = \"base.toml\"\n[run]\nseed = 9\n")).unwrap();
+    assert_eq!((child.run.num_envs, child.run.seed, child.env.rewards.sigma_v), (64, 9, 0.5));
+    let err = TrainConfig::load(&write("c2.toml", "base = \"base.toml\"\n[run]\nsede = 9\n")).unwrap_err().to_string();
+    assert!(err.contains("sede"), "{err}");
+    let err = TrainConfig::load(&write("c3.toml", "base = \"missing.toml\"\n")).unwrap_err().to_string();
+    assert!(err.contains("missing.toml"), "{err}");
+    write("loop.toml", "base = \"loop.toml\"\n");
+    assert!(TrainConfig::load(&dir.join("loop.toml")).unwrap_err().to_string().contains("cycle"));
     std::fs::remove_dir_all(dir).ok();
 }

@@ -196,11 +196,15 @@ pub enum ConfigError {
 
 impl TrainConfig {
     /// Reads and validates a TOML config; every problem names the key and the file.
+    ///
+    /// A file may start from another: `base = "cpu.toml"` (relative to the file) loads that one first and applies
+    /// this file's keys on top, table by table, so an experiment config holds only what it changes.
     pub fn load(path: &Path) -> Result<TrainConfig, ConfigError> {
         let p = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io { path: p.clone(), source })?;
-        let cfg: TrainConfig = toml::from_str(&text)
-            .map_err(|e| ConfigError::Parse { path: p.clone(), message: one_line(&e.to_string()) })?;
+        let table = load_table(path, 0)?;
+        let cfg: TrainConfig = toml::Value::Table(table)
+            .try_into()
+            .map_err(|e: toml::de::Error| ConfigError::Parse { path: p.clone(), message: one_line(&e.to_string()) })?;
         cfg.validate().map_err(|message| ConfigError::Invalid { path: p, message })?;
         Ok(cfg)
     }
@@ -260,4 +264,35 @@ impl TrainConfig {
 /// toml's errors span several lines (with a source excerpt); keep them on one.
 fn one_line(s: &str) -> String {
     s.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('|')).collect::<Vec<_>>().join(" ")
+}
+
+/// A config file's table with its `base` chain merged in (at most 8 levels, so a cycle is an error).
+fn load_table(path: &Path, depth: usize) -> Result<toml::Table, ConfigError> {
+    let p = path.display().to_string();
+    if depth > 8 {
+        return Err(ConfigError::Invalid { path: p, message: "`base` chain deeper than 8 files (a cycle?)".into() });
+    }
+    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io { path: p.clone(), source })?;
+    let mut table: toml::Table =
+        toml::from_str(&text).map_err(|e| ConfigError::Parse { path: p.clone(), message: one_line(&e.to_string()) })?;
+    let Some(base) = table.remove("base") else { return Ok(table) };
+    let Some(base) = base.as_str() else {
+        return Err(ConfigError::Invalid { path: p, message: "`base` must be a file name (a string)".into() });
+    };
+    let base_path = path.parent().unwrap_or(Path::new(".")).join(base);
+    let mut merged = load_table(&base_path, depth + 1)?;
+    merge(&mut merged, table);
+    Ok(merged)
+}
+
+/// Applies `over` on top of `base`: tables merge key by key, anything else replaces.
+fn merge(base: &mut toml::Table, over: toml::Table) {
+    for (k, v) in over {
+        match (base.get_mut(&k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            (_, v) => {
+                base.insert(k, v);
+            }
+        }
+    }
 }
