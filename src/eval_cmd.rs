@@ -101,6 +101,7 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
                 return print_json(&rows);
             }
             println!("{}", report::tracking_markdown(&[("ours", &rows)], Some(&paper)));
+            println!("{}", report::gait_markdown(&[("ours", &rows)]));
         }
         EvalCmd::Push { policy, range, step, window } => {
             let mut r = PolicyRunner::load(&policy, "policy")?;

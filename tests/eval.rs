@@ -91,11 +91,14 @@ fn tracking_metrics_on_hand_made_trajectories() {
         let tau = if k % 2 == 0 { [1.0; 10] } else { [-3.0; 10] };
         acc.add([0.5, 0.0, 0.0], [vx, 0.1, 0.0], [0.0, 0.0, -0.2], &tau, 0.02, -0.04);
     }
-    let (mae, torque, roll, pitch) = acc.finish();
-    assert!((mae - (0.1 + 0.1 + 0.2) / 3.0).abs() < 1e-12, "{mae}");
-    assert!((torque - 20.0).abs() < 1e-12);
-    assert!((roll - 0.02).abs() < 1e-12 && (pitch + 0.04).abs() < 1e-12);
-    assert!(tracking::TrackingAccumulator::default().finish().0.is_nan());
+    let m = acc.finish();
+    for (got, want) in m.components.iter().zip([0.1, 0.1, 0.2]) {
+        assert!((got - want).abs() < 1e-12, "{m:?}");
+    }
+    assert!((m.mae() - (0.1 + 0.1 + 0.2) / 3.0).abs() < 1e-12, "{m:?}");
+    assert!((m.torque - 20.0).abs() < 1e-12);
+    assert!((m.roll - 0.02).abs() < 1e-12 && (m.pitch + 0.04).abs() < 1e-12);
+    assert!(tracking::TrackingAccumulator::default().finish().mae().is_nan());
 }
 
 #[test]
@@ -114,6 +117,13 @@ fn scripted_policies_behave_as_known() {
     let mut r = PolicyRunner::load(&crouch, "crouch").unwrap();
     let rows = tracking::run(&mut r, &quick(), 4.0, 1.0).unwrap();
     assert!(rows.iter().all(|row| row.fell), "a crouching policy falls: {rows:?}");
+    for row in &rows {
+        // The paper-comparable error goes on over the robot on the floor: each component's error is about its
+        // command's magnitude, and their sum about the command's L1 norm.
+        let l1: f64 = row.command.iter().map(|c| c.abs()).sum();
+        assert!(row.mae_paper > 0.8 * l1 && row.mae_paper < l1 + 0.3, "fallen: sum ≈ ‖c‖₁ = {l1}: {row:?}");
+        assert!(row.mean_pitch.abs() > 0.2 || row.mean_roll.abs() > 0.2, "averaged over the fallen robot: {row:?}");
+    }
     // Holding the keyframe targets stands for the whole window on every command, without tracking it.
     let hold = constant_policy(&dir, "hold", ModelKind::Closed, hold_action());
     let mut r = PolicyRunner::load(&hold, "hold").unwrap();
@@ -124,6 +134,10 @@ fn scripted_policies_behave_as_known() {
         assert!((row.mae - expected).abs() < 0.02, "standing still, MAE = mean |command|: {row:?}");
         assert!(row.mean_roll.abs() < 0.01 && row.mean_pitch.abs() < 0.02);
         assert!(row.mean_torque > 5.0, "holding the pose takes torque: {row:?}");
+        let g = &row.gait;
+        assert_eq!(g.steps_per_s, 0.0, "standing takes no steps: {g:?}");
+        assert!(g.double_support > 0.99 && (g.base_height_m - 0.56).abs() < 0.02, "{g:?}");
+        assert!(g.slip_per_stance_m < 0.005, "a standing foot does not slide: {g:?}");
     }
     std::fs::remove_dir_all(dir).ok();
 }
@@ -289,4 +303,22 @@ fn mcap_recording_reads_back_with_the_expected_channels() {
         "the file has its summary section (finished cleanly)"
     );
     std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn the_bundled_closed_chain_policy_takes_real_steps() {
+    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C.json"));
+    let mut r = PolicyRunner::load(path, "C").unwrap();
+    let rows = tracking::run(&mut r, &EvalSettings::default(), 6.0, 2.0).unwrap();
+    for row in &rows {
+        let g = &row.gait;
+        assert!(!row.fell, "{row:?}");
+        assert!((g.seconds - 4.0).abs() < 0.05, "gait measured over the window after the transient: {g:?}");
+        assert!(g.steps_per_s > 1.0 && g.steps_per_s < 6.0, "{}: walking means stepping: {g:?}", row.key);
+        assert!(g.air_time_s > 0.04 && g.air_time_s < 0.6 && g.clearance_m > 0.005, "{}: {g:?}", row.key);
+        assert!(g.double_support < 0.6, "{}: feet alternate: {g:?}", row.key);
+        // Both error definitions agree for a robot that walks all along, up to the transient they differ by.
+        assert!((row.mae_paper - row.mae_whole.iter().sum::<f64>()).abs() < 1e-12);
+        assert!(row.mae_paper < 0.6 && row.mae < 0.2, "{}: it tracks: {row:?}", row.key);
+    }
 }

@@ -313,18 +313,18 @@ impl Data {
     /// 6-D velocity [angular(3), linear(3)] of a body's frame origin (`mj_objectVelocity`), in world
     /// orientation, or in the body's own frame if `local`. Valid after `forward`/`step`.
     pub fn body_velocity(&self, body: usize, local: bool) -> [f64; 6] {
-        assert!(body < self.model.nbody(), "body {body} out of range");
+        self.object_velocity(crate::ObjType::Body, body, local)
+    }
+
+    /// 6-D velocity [angular(3), linear(3)] of an object's frame (body, geom, site, camera), in world orientation
+    /// or in the object's own frame if `local`. Panics on an index the model does not have.
+    pub fn object_velocity(&self, kind: crate::ObjType, id: usize, local: bool) -> [f64; 6] {
+        let n = self.model.count(kind);
+        assert!(id < n, "{kind} {id} out of range ({n})");
         let mut out = [0.0; 6];
         // SAFETY: index checked; writes 6 values.
         unsafe {
-            ffi::mj_objectVelocity(
-                self.model.raw(),
-                self.raw(),
-                ffi::mjOBJ_BODY as i32,
-                body as i32,
-                out.as_mut_ptr(),
-                local as i32,
-            )
+            ffi::mj_objectVelocity(self.model.raw(), self.raw(), kind.raw(), id as i32, out.as_mut_ptr(), local as i32)
         };
         out
     }

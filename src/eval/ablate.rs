@@ -94,8 +94,9 @@ pub fn markdown(a: &Ablation) -> Result<String> {
     let pu: Vec<(&str, &PushGrid)> = a.results.iter().map(|r| (r.name.as_str(), &r.push)).collect();
     let no: Vec<(&str, &[NoiseRow])> = a.results.iter().map(|r| (r.name.as_str(), r.noise.as_slice())).collect();
     Ok(format!(
-        "## Commanded velocity tracking\n{}\n## Time to fall under a constant torso force\n\n{}\n## Command noise\n\n{}",
+        "## Commanded velocity tracking\n{}\n## Gait\n\n{}\n## Time to fall under a constant torso force\n\n{}\n## Command noise\n\n{}",
         report::tracking_markdown(&tr, Some(&paper)),
+        report::gait_markdown(&tr),
         report::push_markdown(&pu, Some(&paper)),
         report::noise_markdown(&no, Some(&paper)),
     ))

@@ -75,31 +75,75 @@ fn with_paper(ours: String, paper: Option<String>) -> String {
     }
 }
 
-/// The tracking table for one or more policies; `paper_of` maps each policy to its paper label, if any. Cells
-/// read "ours (paper)"; a fall is marked with *, as in the paper.
+/// The tracking table for one or more policies. Cells read "ours (paper)" where the paper has the column; the
+/// summed MAE is the paper-comparable definition (see `tracking.rs`); a fall is marked with *, as in the paper.
 pub fn tracking_markdown(results: &[(&str, &[TrackingRow])], paper: Option<&PaperTables>) -> String {
     let mut s = String::new();
     for (ci, (key, title, _)) in COMMANDS.iter().enumerate() {
         let _ = writeln!(s, "\n**{title}**\n");
-        let _ = writeln!(s, "| Policy | v_x,y, w_z MAE | τ̄ (N·m) | θ̄_roll (rad) | θ̄_pitch (rad) |");
-        let _ = writeln!(s, "|---|---:|---:|---:|---:|");
+        let _ = writeln!(
+            s,
+            "| Policy | MAE v_x / v_y / w_z | v_x,y, w_z MAE (sum) | steady MAE (ours) | τ̄ (N·m) | θ̄_roll (rad) | θ̄_pitch (rad) |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
         for (name, rows) in results {
             let r = &rows[ci];
             let p = paper.and_then(|t| t.tracking.get(*key)).and_then(|m| m.get(*name));
             let star = if r.fell { "*" } else { "" };
             let pstar = |p: &[f64; 5]| if p[4] > 0.5 { "*" } else { "" };
+            let w = r.mae_whole;
             let _ = writeln!(
                 s,
-                "| {}{star} | {} | {} | {} | {} |",
+                "| {}{star} | {} / {} / {} | {} | {} | {} | {} | {} |",
                 label(name),
-                with_paper(fmt(r.mae, 2), p.map(|p| format!("{}{}", fmt(p[0], 2), pstar(p)))),
+                fmt(w[0], 2),
+                fmt(w[1], 2),
+                fmt(w[2], 2),
+                with_paper(fmt(r.mae_paper, 2), p.map(|p| format!("{}{}", fmt(p[0], 2), pstar(p)))),
+                fmt(r.mae, 3),
                 with_paper(fmt(r.mean_torque, 2), p.map(|p| fmt(p[1], 2))),
                 with_paper(fmt(r.mean_roll, 2), p.map(|p| fmt(p[2], 2))),
                 with_paper(fmt(r.mean_pitch, 2), p.map(|p| fmt(p[3], 2))),
             );
         }
     }
-    let _ = writeln!(s, "\n\\* fell. Cells: ours (paper).");
+    let _ = writeln!(
+        s,
+        "\n\\* fell. Cells: ours (paper). Per-component MAE, their sum, τ̄ and θ̄ over the whole window from the \
+         command's start, continuing after a fall (the paper-comparable definition); steady MAE: the mean of the \
+         three components after 2 s, up to a fall."
+    );
+    s
+}
+
+/// The gait of every policy on every tracking command.
+pub fn gait_markdown(results: &[(&str, &[TrackingRow])]) -> String {
+    let mut s = String::from(
+        "| Policy | command | steps/s per foot | air time (s) | clearance (cm) | slip (cm per stance) | double support | base height (m) |\n|---|---|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for (name, rows) in results {
+        for r in rows.iter() {
+            let g = &r.gait;
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {} | {} |",
+                label(name),
+                r.key,
+                fmt(g.steps_per_s, 2),
+                fmt(g.air_time_s, 3),
+                fmt(100.0 * g.clearance_m, 1),
+                fmt(100.0 * g.slip_per_stance_m, 2),
+                fmt(g.double_support, 2),
+                fmt(g.base_height_m, 3),
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\nAfter the first 2 s of each command, up to a fall. A step is a touchdown after ≥ 1 policy step in the \
+         air; clearance is the sole centre's highest point in a swing; slip the sole centre's horizontal travel \
+         while in contact."
+    );
     s
 }
 
@@ -146,21 +190,39 @@ pub fn write_json<T: Serialize>(dir: &Path, name: &str, value: &T) -> Result<()>
 }
 
 pub fn tracking_csv(rows: &[TrackingRow]) -> String {
-    let mut s = String::from("command,v_x,v_y,w_z,mae,mean_torque,mean_roll,mean_pitch,fell,fell_at_s\n");
+    let mut s = String::from(
+        "command,v_x,v_y,w_z,mae_vx,mae_vy,mae_wz,mae_paper,mae_steady,mae_steady_vx,mae_steady_vy,mae_steady_wz,\
+         mean_torque,mean_roll,mean_pitch,fell,fell_at_s,steps_per_s,air_time_s,clearance_m,slip_per_stance_m,\
+         double_support,base_height_m\n",
+    );
     for r in rows {
+        let (w, c, g) = (r.mae_whole, r.mae_components, &r.gait);
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.key,
             r.command[0],
             r.command[1],
             r.command[2],
+            w[0],
+            w[1],
+            w[2],
+            r.mae_paper,
             r.mae,
+            c[0],
+            c[1],
+            c[2],
             r.mean_torque,
             r.mean_roll,
             r.mean_pitch,
             r.fell,
-            r.fell_at.map_or(String::new(), |t| t.to_string())
+            r.fell_at.map_or(String::new(), |t| t.to_string()),
+            g.steps_per_s,
+            g.air_time_s,
+            g.clearance_m,
+            g.slip_per_stance_m,
+            g.double_support,
+            g.base_height_m
         );
     }
     s

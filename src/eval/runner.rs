@@ -14,9 +14,13 @@ pub trait Experiment {
     fn setup(&mut self, env: usize, task: &mut TopaEnv);
     /// Called before every policy step of the window (`step` counts from 0) for envs still standing.
     fn control(&mut self, _step: usize, _env: usize, _task: &mut TopaEnv) {}
-    /// Called after every policy step of the window for envs still standing, with the time since the window
-    /// started.
-    fn observe(&mut self, _env: usize, _t: f64, _task: &TopaEnv) {}
+    /// Called after every policy step of the window, with the time since the window started: for envs still
+    /// standing, or for every env (`fallen` says which) when the experiment continues after falls.
+    fn observe(&mut self, _env: usize, _t: f64, _task: &TopaEnv, _fallen: bool) {}
+    /// Keep measuring a robot that fell (its config must not end episodes on a fall) instead of dropping it.
+    fn continue_after_fall(&self) -> bool {
+        false
+    }
 }
 
 /// Time of each env's first fall since the window started (0 for a fall while settling), None if it never fell.
@@ -63,18 +67,21 @@ pub fn run_batch(
         runner.act(batch.obs(), &mut actions);
         batch.step(&actions)?;
         let t_window = if k >= settle { (k + 1 - settle) as f64 * dt } else { 0.0 };
+        let go_on = exp.continue_after_fall();
         for i in 0..n {
-            if fell[i].is_some() {
-                continue;
-            }
-            if batch.dones()[i] > 0.5 {
+            let task = &batch.tasks()[i];
+            if fell[i].is_none() && (batch.dones()[i] > 0.5 || (go_on && task.has_fallen())) {
                 fell[i] = Some(t_window);
-            } else if k >= settle {
-                exp.observe(i, t_window, &batch.tasks()[i]);
+                if !go_on {
+                    continue;
+                }
+            }
+            if k >= settle && (go_on || fell[i].is_none()) {
+                exp.observe(i, t_window, task, fell[i].is_some());
             }
         }
         bar.inc(1);
-        if fell.iter().all(|f| f.is_some()) {
+        if !go_on && fell.iter().all(|f| f.is_some()) {
             break; // everyone is down: nothing left to measure
         }
     }

@@ -254,6 +254,9 @@ impl PushConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TerminationConfig {
+    /// A fall ends the episode (false: the episode goes on with the robot on the floor, as an evaluation that
+    /// keeps measuring after a fall needs; `TopaEnv::has_fallen` still tells).
+    pub enabled: bool,
     /// Torso origin below this height, m.
     pub min_base_height: f64,
     /// Roll or pitch beyond this, rad.
@@ -264,7 +267,7 @@ pub struct TerminationConfig {
 
 impl Default for TerminationConfig {
     fn default() -> Self {
-        TerminationConfig { min_base_height: 0.3, max_tilt: 1.0, body_contact: true }
+        TerminationConfig { enabled: true, min_base_height: 0.3, max_tilt: 1.0, body_contact: true }
     }
 }
 

@@ -279,7 +279,9 @@ impl TopaEnv {
         ((seconds / self.cfg.policy_dt()).round() as usize).max(1)
     }
 
-    fn fallen(&self) -> bool {
+    /// The fall test of the termination settings, on the state of the last step (whether or not falls end the
+    /// episode).
+    pub fn has_fallen(&self) -> bool {
         let t = &self.cfg.termination;
         let s = &self.robot_state;
         s.base_pos[2] < t.min_base_height
@@ -406,7 +408,7 @@ impl Task for TopaEnv {
         self.last_contact = contact;
         self.last_action = a;
 
-        let fell = self.fallen();
+        let fell = self.cfg.termination.enabled && self.has_fallen();
         let time_out = !fell && self.step_count >= self.cfg.max_episode_steps();
         if self.step_count >= self.next_resample {
             self.sample_command();

@@ -24,6 +24,8 @@ pub struct RobotIndices {
     pub joint_dof: [usize; N_MOTORS],
     pub foot_bodies: [usize; 2],
     pub foot_geoms: [usize; 2],
+    /// Sites at the centre of each sole (`l_foot_site`, `r_foot_site`).
+    pub foot_sites: [usize; 2],
     pub floor_geom: usize,
     /// Bodies whose contact with the floor ends an episode (everything but the feet).
     pub fall_bodies: Vec<usize>,
@@ -127,6 +129,7 @@ impl RobotIndices {
             joint_dof: joint_jnt.map(|j| model.jnt_dofadr_of(j)),
             foot_bodies,
             foot_geoms: [lf.1, rf.1],
+            foot_sites: [id(ObjType::Site, "l_foot_site")?, id(ObjType::Site, "r_foot_site")?],
             floor_geom,
             fall_bodies,
             loops,
