@@ -184,7 +184,8 @@ fn domain_randomisation_stays_within_its_ranges() {
 #[test]
 fn pushes_kick_the_base_by_the_configured_speed() {
     let mut pushed = quiet(ModelKind::Closed);
-    pushed.push = topa_env::config::PushConfig { enabled: true, velocity: [1.0, 1.0], interval_s: 0.02 };
+    pushed.push =
+        topa_env::config::PushConfig { enabled: true, velocity: [1.0, 1.0], interval_s: 0.02, ..Default::default() };
     let mut a = env(pushed, 21);
     let mut b = env(quiet(ModelKind::Closed), 21);
     let (mut oa, mut ob) = (vec![0.0; OBS_DIM], vec![0.0; OBS_DIM]);
@@ -225,6 +226,30 @@ fn a_diverging_env_is_reset_and_counted_without_disturbing_the_batch() {
     for env_i in [0, 1, 3] {
         assert_eq!(&clean[env_i * 42..(env_i + 1) * 42], &dirty[env_i * 42..(env_i + 1) * 42], "env {env_i}");
     }
+}
+
+#[test]
+fn a_model_too_small_for_its_contacts_stops_the_batch_with_the_fix() {
+    // TopA with room for 4 contacts: standing on two box soles needs 8. MuJoCo would drop the rest silently.
+    let dir = assets::mjcf_dir();
+    let xml = std::fs::read_to_string(dir.join("topa_closed.xml")).unwrap();
+    let small = xml.replace(
+        "<include file=\"common/sensors.xml\"/>",
+        "<include file=\"common/sensors.xml\"/>\n  <size nconmax=\"4\"/>",
+    );
+    let model = Arc::new(mujoco_sys::Model::from_xml_string(&small, &dir).unwrap());
+    assert_eq!(model.raw().nconmax, 4);
+    let mut v = assets::topa_batch_on(model, &quiet(ModelKind::Closed), 2, 1, 1).unwrap();
+    let err = (|| -> topa_env::Result<()> {
+        v.reset()?;
+        for _ in 0..50 {
+            v.step(&[0.0; 20])?;
+        }
+        Ok(())
+    })()
+    .expect_err("8 contacts cannot fit in 4");
+    let msg = err.to_string();
+    assert!(msg.contains("nconmax") && msg.contains("<size>"), "{msg}");
 }
 
 #[test]

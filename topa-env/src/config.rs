@@ -325,7 +325,8 @@ impl EnvConfig {
         check_range("push.velocity", self.push.velocity)?;
         check_positive("push.interval_s", self.push.interval_s)?;
         let p = &self.push;
-        if !(p.curriculum_s >= 0.0 && p.curriculum_start >= p.velocity[0] && p.curriculum_start <= p.velocity[1]) {
+        let start_ok = p.curriculum_start >= p.velocity[0] && p.curriculum_start <= p.velocity[1];
+        if !(p.curriculum_s >= 0.0 && (p.curriculum_s == 0.0 || start_ok)) {
             return Err(EnvError::Config(format!(
                 "push.curriculum_start must lie in push.velocity {:?} and push.curriculum_s must be ≥ 0",
                 p.velocity
@@ -372,5 +373,24 @@ impl EnvConfig {
         c.domain_rand.enabled = false;
         c.push.enabled = false;
         c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn push_curriculum_ramps_the_largest_kick_then_holds_it() {
+        let p = PushConfig { velocity: [0.0, 2.5], curriculum_start: 1.0, curriculum_s: 100.0, ..Default::default() };
+        assert_eq!(p.max_velocity(0.0), 1.0);
+        assert!((p.max_velocity(50.0) - 1.75).abs() < 1e-12);
+        assert_eq!(p.max_velocity(100.0), 2.5);
+        assert_eq!(p.max_velocity(1e6), 2.5);
+        assert_eq!(PushConfig::default().max_velocity(0.0), 2.5, "no curriculum: the full range at once");
+        let mut cfg = EnvConfig::default();
+        cfg.push.curriculum_start = 3.0;
+        cfg.push.curriculum_s = 10.0;
+        assert!(cfg.validate().unwrap_err().to_string().contains("push.curriculum_start"));
     }
 }
