@@ -158,6 +158,18 @@ enum BenchCmd {
         #[arg(long, hide = true)]
         worker: bool,
     },
+    /// Memory per env and start-up time of a batch, and the largest MuJoCo memory use (stack, contacts,
+    /// constraint rows) over walking, pushed and falling episodes against the MJCF's <size>.
+    Memory {
+        #[arg(long, default_value_t = 4096)]
+        envs: usize,
+        /// Policy steps per measured workload.
+        #[arg(long, default_value_t = 1000)]
+        steps: usize,
+        /// The policy that walks (and is pushed) in the first workload.
+        #[arg(long, default_value = "assets/policies/C.json")]
+        policy: PathBuf,
+    },
     /// Real training iterations of a preset: samples/s, the collect / inference / update split, and their ratio
     /// to the bare physics bound measured in the same run.
     Train {
@@ -237,6 +249,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 bench::ppo::run(&threads, repeats, torch_python.as_deref())
             }
         }
+        Cmd::Bench(BenchCmd::Memory { envs, steps, policy }) => bench::memory::run(envs, steps, &policy),
         Cmd::Bench(BenchCmd::Train { config, threads, envs, iterations, warmup, integrator, worker }) => {
             let a = bench::train::Args { config: &config, threads: &threads, envs, iterations, warmup, integrator };
             if worker {
