@@ -189,6 +189,9 @@ enum BenchCmd {
         /// Override the preset's integrator (euler, rk4, model, implicit).
         #[arg(long)]
         integrator: Option<String>,
+        /// Interleaved rounds (the fastest of each thread count is kept).
+        #[arg(long, default_value_t = 2)]
+        rounds: usize,
         #[arg(long, hide = true)]
         worker: bool,
     },
@@ -250,8 +253,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
         }
         Cmd::Bench(BenchCmd::Memory { envs, steps, policy }) => bench::memory::run(envs, steps, &policy),
-        Cmd::Bench(BenchCmd::Train { config, threads, envs, iterations, warmup, integrator, worker }) => {
-            let a = bench::train::Args { config: &config, threads: &threads, envs, iterations, warmup, integrator };
+        Cmd::Bench(BenchCmd::Train { config, threads, envs, iterations, warmup, integrator, rounds, worker }) => {
+            let a =
+                bench::train::Args { config: &config, threads: &threads, envs, iterations, warmup, integrator, rounds };
             if worker {
                 println!("{}", serde_json::to_string(&bench::train::worker(&a, threads[0])?)?);
                 Ok(())

@@ -92,7 +92,10 @@ pub fn run(envs: usize, steps: usize, policy: &std::path::Path) -> Result<()> {
     drop(v);
 
     let mut p = Policy::load(policy).with_context(|| format!("walking policy {}", policy.display()))?;
-    println!("largest use over {steps} policy steps × 64 envs per row (walking: {}, random: falling):\n", policy.display());
+    println!(
+        "largest use over {steps} policy steps × 64 envs per row (walking: {}, random: falling):\n",
+        policy.display()
+    );
     println!("| integrator | episodes | stack (mjtNum) | contacts | constraint rows |");
     println!("|---|---|---:|---:|---:|");
     let mut worst = Use::default();

@@ -47,6 +47,8 @@ pub struct Args<'a> {
     pub iterations: usize,
     pub warmup: usize,
     pub integrator: Option<String>,
+    /// Interleaved rounds over the thread counts; the fastest round of each count is kept (the machine is shared).
+    pub rounds: usize,
 }
 
 /// One measurement in this process: `warmup` untimed iterations, then `iterations` timed ones.
@@ -132,16 +134,27 @@ pub fn run(a: &Args) -> Result<()> {
     let envs = a.envs.unwrap_or(cfg.run.num_envs);
     let integ = a.integrator.clone().unwrap_or(cfg.env.integrator.clone());
     println!(
-        "{}: {envs} envs × {} steps, integrator {integ}, timestep {} s × {}; {} timed iterations after {} warm-up\n",
+        "{}: {envs} envs × {} steps, integrator {integ}, timestep {} s × {}; {} timed iterations after {} warm-up, \
+         best of {} interleaved rounds\n",
         a.config.display(),
         cfg.run.steps_per_env,
         cfg.env.timestep,
         cfg.env.decimation,
         a.iterations,
-        a.warmup
+        a.warmup,
+        a.rounds.max(1)
     );
     let start = Instant::now();
-    let results = a.threads.iter().map(|&t| run_worker(a, t)).collect::<Result<Vec<_>>>()?;
+    let mut results: Vec<Option<WorkerResult>> = vec![None; a.threads.len()];
+    for _ in 0..a.rounds.max(1) {
+        for (slot, &t) in results.iter_mut().zip(a.threads) {
+            let r = run_worker(a, t)?;
+            if slot.as_ref().is_none_or(|b| r.iteration_s < b.iteration_s) {
+                *slot = Some(r);
+            }
+        }
+    }
+    let results: Vec<WorkerResult> = results.into_iter().flatten().collect();
     println!("| threads | samples/s | iteration (s) | collect (s) | env step (s) | inference (s) | serial rest (s) | update (s) |");
     println!("|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &results {
