@@ -46,7 +46,7 @@ fn main() {
         .flag_if_supported("-std=c11")
         .opt_level(2)
         .warnings(true)
-        .compile("topa_mujoco_shim");
+        .compile("mujoco_sys_shim");
 
     #[cfg(feature = "regenerate-bindings")]
     regenerate(&include);

@@ -16,9 +16,13 @@ pub struct Common {
     /// Folder for result files (CSV, JSON, images).
     #[arg(long, global = true, default_value = "out/eval")]
     pub out: PathBuf,
-    /// Physics timestep of the evaluation, s (training used 0.005).
-    #[arg(long, global = true, default_value_t = 0.0025)]
-    pub timestep: f64,
+    /// Physics timestep of the evaluation, s (training used 0.005; default 0.0025, or the sim2sim mode's own).
+    #[arg(long, global = true)]
+    pub timestep: Option<f64>,
+    /// ideal (the simulator's state), realistic (state estimator, IMU and encoder noise, latency, motor
+    /// torque–speed limits: configs/sim2sim/realistic.toml), or a TOML file with your own mix.
+    #[arg(long, global = true, default_value = "ideal")]
+    pub sim2sim: String,
     /// Integrator: model (the MJCF's RK4), euler, rk4, implicit.
     #[arg(long, global = true, default_value = "model")]
     pub integrator: String,
@@ -31,7 +35,7 @@ pub struct Common {
 }
 
 impl Common {
-    pub fn settings(&self) -> EvalSettings {
+    pub fn settings(&self) -> Result<EvalSettings> {
         EvalSettings {
             timestep: self.timestep,
             integrator: self.integrator.clone(),
@@ -39,6 +43,7 @@ impl Common {
             threads: self.threads,
             ..Default::default()
         }
+        .with_sim2sim(&self.sim2sim)
     }
 }
 
@@ -88,7 +93,7 @@ fn print_json<T: serde::Serialize>(v: &T) -> Result<()> {
 }
 
 pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
-    let s = c.settings();
+    let s = c.settings()?;
     std::fs::create_dir_all(&c.out)?;
     let paper = report::paper()?;
     match cmd {
@@ -137,7 +142,7 @@ pub fn run_ablate(o: Option<PathBuf>, cp: Option<PathBuf>, ca: Option<PathBuf>, 
     let policies: Vec<(String, PathBuf)> =
         [("O", o), ("C", cp), ("CA", ca)].into_iter().filter_map(|(n, p)| p.map(|p| (n.to_string(), p))).collect();
     let extent = if full { Extent::full() } else { Extent::quick() };
-    let a = ablate::run(&policies, &c.settings(), &extent)?;
+    let a = ablate::run(&policies, &c.settings()?, &extent)?;
     ablate::write(&a, &c.out)?;
     if c.json {
         return print_json(&a);

@@ -225,7 +225,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Play { policy, command, seconds, record, common } => {
             trainer::nn::init_threads(1)?;
             anyhow::ensure!(command.len() == 3, "--command takes three numbers v_x,v_y,w_z, got {}", command.len());
-            let s = play::run(&policy, [command[0], command[1], command[2]], seconds, record, &common.settings())?;
+            let s = play::run(&policy, [command[0], command[1], command[2]], seconds, record, &common.settings()?)?;
             if common.json {
                 println!("{}", serde_json::to_string_pretty(&s)?);
             } else {

@@ -36,12 +36,15 @@ fn record_step(rec: &mut Recorder, env: &TopaEnv, t: f64) -> Result<()> {
     rec.write_transforms(env.data(), t)?;
     rec.write_plot("/joints", t, json!({"position": named(&joints, &s.joint_pos), "velocity": named(&joints, &s.joint_vel), "torque": named(&joints, &s.joint_torque)}))?;
     rec.write_plot("/motors", t, json!({"position": named(&motors, &s.motor_pos), "velocity": named(&motors, &s.motor_vel), "torque": named(&motors, &s.motor_torque)}))?;
-    rec.write_plot(
-        "/base",
-        t,
-        json!({"height": s.base_pos[2], "roll": s.roll, "pitch": s.pitch, "yaw": s.yaw,
-               "v_x": s.lin_vel[0], "v_y": s.lin_vel[1], "v_z": s.lin_vel[2], "w_x": s.ang_vel[0], "w_y": s.ang_vel[1], "w_z": s.ang_vel[2]}),
-    )?;
+    let mut base = json!({"height": s.base_pos[2], "roll": s.roll, "pitch": s.pitch, "yaw": s.yaw,
+               "v_x": s.lin_vel[0], "v_y": s.lin_vel[1], "v_z": s.lin_vel[2], "w_x": s.ang_vel[0], "w_y": s.ang_vel[1], "w_z": s.ang_vel[2]});
+    if let Some(s2s) = env.sim2sim() {
+        // What the policy was given (torso frame) beside the truth above: the estimator's velocity, the gyro.
+        let seen = s2s.latest();
+        base["sensed"] = json!({"v_x": seen.lin_vel[0], "v_y": seen.lin_vel[1], "v_z": seen.lin_vel[2],
+            "w_x": seen.ang_vel[0], "w_y": seen.ang_vel[1], "w_z": seen.ang_vel[2], "filter_resets": s2s.filter_resets});
+    }
+    rec.write_plot("/base", t, base)?;
     let c = env.command();
     rec.write_plot("/command", t, json!({"v_x": c[0], "v_y": c[1], "w_z": c[2], "measured_v_x": s.lin_vel[0], "measured_v_y": s.lin_vel[1], "measured_w_z": s.ang_vel[2]}))?;
     let contact = s.foot_contact();

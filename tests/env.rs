@@ -271,7 +271,20 @@ fn cartpole_random_policy_falls_quickly() {
 
 #[test]
 fn snapshot_restore_continues_bit_for_bit() {
-    let cfg = EnvConfig::default();
+    let mut with_estimator = EnvConfig::default();
+    with_estimator.sim2sim.estimator.enabled = true;
+    with_estimator.sim2sim.estimator.contact_threshold = 5.0;
+    with_estimator.sim2sim.gyro =
+        topa_env::sim2sim::sensors::NoiseConfig { enabled: true, white: 0.01, bias_initial: 0.01, bias_walk: 0.001 };
+    with_estimator.sim2sim.latency.observation_policy_steps = 2;
+    with_estimator.sim2sim.latency.action_physics_steps = 3;
+    for cfg in [EnvConfig::default(), with_estimator] {
+        snapshot_round_trip(&cfg);
+    }
+}
+
+fn snapshot_round_trip(cfg: &EnvConfig) {
+    let cfg = cfg.clone();
     let mut a = assets::topa_batch(&cfg, 3, 8, 1).unwrap();
     a.reset().unwrap();
     let act = |k: usize| -> Vec<f32> { (0..30).map(|i| ((i * 7 + k * 13) % 11) as f32 / 11.0 - 0.5).collect() };

@@ -14,13 +14,13 @@
 
 #include <mujoco/mujoco.h>
 
-typedef void (*topa_log_cb)(const char*);
+typedef void (*mjs_log_cb)(const char*);
 
-static topa_log_cb g_warning_cb = NULL;
+static mjs_log_cb g_warning_cb = NULL;
 static _Thread_local sigjmp_buf* tls_jump = NULL;
 static _Thread_local char tls_message[1024];
 
-static void topa_error_handler(const char* msg) {
+static void mjs_error_handler(const char* msg) {
   snprintf(tls_message, sizeof tls_message, "%s", msg ? msg : "(no message)");
   if (tls_jump) {
     siglongjmp(*tls_jump, 1);
@@ -31,16 +31,16 @@ static void topa_error_handler(const char* msg) {
   abort();
 }
 
-static void topa_warning_handler(const char* msg) {
+static void mjs_warning_handler(const char* msg) {
   if (g_warning_cb) {
     g_warning_cb(msg ? msg : "(no message)");
   }
 }
 
-void topa_install_handlers(topa_log_cb warning_cb) {
+void mjs_install_handlers(mjs_log_cb warning_cb) {
   g_warning_cb = warning_cb;
-  mju_user_error = topa_error_handler;
-  mju_user_warning = topa_warning_handler;
+  mju_user_error = mjs_error_handler;
+  mju_user_warning = mjs_warning_handler;
 }
 
 static void copy_error(char* err, int errlen) {
@@ -63,25 +63,31 @@ static void copy_error(char* err, int errlen) {
   tls_jump = previous;                              \
   return 0;
 
-int topa_step(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_step(m, d)) }
-int topa_step1(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_step1(m, d)) }
-int topa_step2(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_step2(m, d)) }
-int topa_forward(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_forward(m, d)) }
-int topa_reset_data(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_resetData(m, d)) }
-int topa_reset_data_keyframe(const mjModel* m, mjData* d, int key, char* err, int errlen) {
+int mjs_step(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_step(m, d)) }
+int mjs_step1(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_step1(m, d)) }
+int mjs_step2(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_step2(m, d)) }
+int mjs_forward(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_forward(m, d)) }
+int mjs_reset_data(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_resetData(m, d)) }
+int mjs_reset_data_keyframe(const mjModel* m, mjData* d, int key, char* err, int errlen) {
   GUARDED(mj_resetDataKeyframe(m, d, key))
 }
-int topa_set_const(mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_setConst(m, d)) }
+int mjs_set_const(mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_setConst(m, d)) }
 
-int topa_make_data(const mjModel* m, mjData** out, char* err, int errlen) { GUARDED(*out = mj_makeData(m)) }
-int topa_copy_data(mjData** out, const mjModel* m, const mjData* src, char* err, int errlen) {
+int mjs_make_data(const mjModel* m, mjData** out, char* err, int errlen) { GUARDED(*out = mj_makeData(m)) }
+int mjs_copy_data(mjData** out, const mjModel* m, const mjData* src, char* err, int errlen) {
   GUARDED(*out = mj_copyData(NULL, m, src))
 }
-int topa_copy_model(mjModel** out, const mjModel* src, char* err, int errlen) {
+int mjs_copy_model(mjModel** out, const mjModel* src, char* err, int errlen) {
   GUARDED(*out = mj_copyModel(NULL, src))
 }
 
 // Loading reports parse/compile errors through `err` itself; the guard catches the rarer mju_error path.
-int topa_load_xml(const char* filename, const mjVFS* vfs, mjModel** out, char* err, int errlen) {
+int mjs_load_xml(const char* filename, const mjVFS* vfs, mjModel** out, char* err, int errlen) {
   GUARDED(*out = mj_loadXML(filename, vfs, err, errlen))
+}
+
+// Positions and velocities of every body, geom and site for the current qpos/qvel, without forces or contacts
+// (what a robot's own kinematics computes from its encoders).
+int mjs_kinematics(const mjModel* m, mjData* d, char* err, int errlen) {
+  GUARDED(mj_kinematics(m, d); mj_comPos(m, d); mj_comVel(m, d))
 }

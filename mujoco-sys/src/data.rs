@@ -117,7 +117,7 @@ impl Data {
         guard::init()?;
         let mut out: *mut mjData = std::ptr::null_mut();
         // SAFETY: valid model; the shim writes the new pointer on success.
-        guarded("mj_makeData", |e, n| unsafe { guard::topa_make_data(model.raw(), &mut out, e, n) })?;
+        guarded("mj_makeData", |e, n| unsafe { guard::mjs_make_data(model.raw(), &mut out, e, n) })?;
         let ptr = std::ptr::NonNull::new(out)
             .ok_or_else(|| MujocoError::Fatal { call: "mj_makeData", message: "allocation failed".into() })?;
         Ok(Data { ptr, model })
@@ -127,7 +127,7 @@ impl Data {
     pub fn try_clone(&self) -> Result<Data> {
         let mut out: *mut mjData = std::ptr::null_mut();
         // SAFETY: self was made for self.model.
-        guarded("mj_copyData", |e, n| unsafe { guard::topa_copy_data(&mut out, self.model.raw(), self.raw(), e, n) })?;
+        guarded("mj_copyData", |e, n| unsafe { guard::mjs_copy_data(&mut out, self.model.raw(), self.raw(), e, n) })?;
         let ptr = std::ptr::NonNull::new(out)
             .ok_or_else(|| MujocoError::Fatal { call: "mj_copyData", message: "allocation failed".into() })?;
         Ok(Data { ptr, model: self.model.clone() })
@@ -169,27 +169,27 @@ impl Data {
     pub fn step(&mut self) -> Result<()> {
         let (m, d) = self.parts();
         // SAFETY: d was made for m.
-        let r = guarded("mj_step", |e, n| unsafe { guard::topa_step(m, d, e, n) });
+        let r = guarded("mj_step", |e, n| unsafe { guard::mjs_step(m, d, e, n) });
         self.check_capacity("mj_step", r)
     }
 
     /// First half of a step (positions and velocities), so controls can depend on them.
     pub fn step1(&mut self) -> Result<()> {
         let (m, d) = self.parts();
-        guarded("mj_step1", |e, n| unsafe { guard::topa_step1(m, d, e, n) })
+        guarded("mj_step1", |e, n| unsafe { guard::mjs_step1(m, d, e, n) })
     }
 
     /// Second half of a step (forces, acceleration, integration).
     pub fn step2(&mut self) -> Result<()> {
         let (m, d) = self.parts();
-        let r = guarded("mj_step2", |e, n| unsafe { guard::topa_step2(m, d, e, n) });
+        let r = guarded("mj_step2", |e, n| unsafe { guard::mjs_step2(m, d, e, n) });
         self.check_capacity("mj_step2", r)
     }
 
     /// Computes everything derived from the state without integrating (`mj_forward`).
     pub fn forward(&mut self) -> Result<()> {
         let (m, d) = self.parts();
-        let r = guarded("mj_forward", |e, n| unsafe { guard::topa_forward(m, d, e, n) });
+        let r = guarded("mj_forward", |e, n| unsafe { guard::mjs_forward(m, d, e, n) });
         self.check_capacity("mj_forward", r)
     }
 
@@ -232,10 +232,18 @@ impl Data {
         (d.maxuse_stack as usize, d.maxuse_con as usize, d.maxuse_efc as usize)
     }
 
+    /// Positions and velocities of every body, geom and site from `qpos` and `qvel` alone (`mj_kinematics`,
+    /// `mj_comPos`, `mj_comVel`): no forces, contacts or sensors.
+    pub fn kinematics(&mut self) -> Result<()> {
+        let (m, d) = self.parts();
+        // SAFETY: d was made for m.
+        guarded("mj_kinematics", |e, n| unsafe { guard::mjs_kinematics(m, d, e, n) })
+    }
+
     /// Back to `qpos0`, zero velocity, zero controls, warnings cleared.
     pub fn reset(&mut self) -> Result<()> {
         let (m, d) = self.parts();
-        guarded("mj_resetData", |e, n| unsafe { guard::topa_reset_data(m, d, e, n) })
+        guarded("mj_resetData", |e, n| unsafe { guard::mjs_reset_data(m, d, e, n) })
     }
 
     /// Back to keyframe `key` (its qpos, qvel, act, ctrl, time).
@@ -248,7 +256,7 @@ impl Data {
             )));
         }
         let (m, d) = self.parts();
-        guarded("mj_resetDataKeyframe", |e, n| unsafe { guard::topa_reset_data_keyframe(m, d, key as i32, e, n) })
+        guarded("mj_resetDataKeyframe", |e, n| unsafe { guard::mjs_reset_data_keyframe(m, d, key as i32, e, n) })
     }
 
     /// Recomputes the model constants that depend on masses and inertias (`mj_setConst`), after changing them.
@@ -257,7 +265,7 @@ impl Data {
         let d = self.ptr.as_ptr();
         let m = self.model_mut().as_ptr();
         // SAFETY: d was made for m (copy-on-write keeps the sizes).
-        guarded("mj_setConst", |e, n| unsafe { guard::topa_set_const(m, d, e, n) })
+        guarded("mj_setConst", |e, n| unsafe { guard::mjs_set_const(m, d, e, n) })
     }
 
     /// Simulation time (s).

@@ -11,30 +11,31 @@ use crate::ffi::{mjData, mjModel, mjVFS};
 pub(crate) const ERR_LEN: usize = 1024;
 
 extern "C" {
-    fn topa_install_handlers(warning_cb: extern "C" fn(*const c_char));
-    pub(crate) fn topa_step(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn topa_step1(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn topa_step2(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn topa_forward(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn topa_reset_data(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn topa_reset_data_keyframe(
+    fn mjs_install_handlers(warning_cb: extern "C" fn(*const c_char));
+    pub(crate) fn mjs_step(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
+    pub(crate) fn mjs_step1(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
+    pub(crate) fn mjs_step2(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
+    pub(crate) fn mjs_forward(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
+    pub(crate) fn mjs_kinematics(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
+    pub(crate) fn mjs_reset_data(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
+    pub(crate) fn mjs_reset_data_keyframe(
         m: *const mjModel,
         d: *mut mjData,
         key: c_int,
         err: *mut c_char,
         len: c_int,
     ) -> c_int;
-    pub(crate) fn topa_set_const(m: *mut mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn topa_make_data(m: *const mjModel, out: *mut *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn topa_copy_data(
+    pub(crate) fn mjs_set_const(m: *mut mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
+    pub(crate) fn mjs_make_data(m: *const mjModel, out: *mut *mut mjData, err: *mut c_char, len: c_int) -> c_int;
+    pub(crate) fn mjs_copy_data(
         out: *mut *mut mjData,
         m: *const mjModel,
         src: *const mjData,
         err: *mut c_char,
         len: c_int,
     ) -> c_int;
-    pub(crate) fn topa_copy_model(out: *mut *mut mjModel, src: *const mjModel, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn topa_load_xml(
+    pub(crate) fn mjs_copy_model(out: *mut *mut mjModel, src: *const mjModel, err: *mut c_char, len: c_int) -> c_int;
+    pub(crate) fn mjs_load_xml(
         filename: *const c_char,
         vfs: *const mjVFS,
         out: *mut *mut mjModel,
@@ -69,7 +70,7 @@ pub(crate) fn init() -> Result<()> {
         }
         // SAFETY: sets two process-global function pointers to handlers that never return into MuJoCo
         // wrongly (the error one long-jumps or aborts).
-        unsafe { topa_install_handlers(log_warning) };
+        unsafe { mjs_install_handlers(log_warning) };
         Ok(())
     })
     .clone()

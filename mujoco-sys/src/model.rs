@@ -34,7 +34,7 @@ impl Clone for Model {
 }
 
 /// The name MuJoCo gets for a model loaded from a string; includes resolve against its directory.
-const INLINE_NAME: &str = "topa_inline_model.xml";
+const INLINE_NAME: &str = "mujoco_sys_inline_model.xml";
 
 impl Model {
     /// Loads and compiles an MJCF (or MJB) file.
@@ -61,7 +61,7 @@ impl Model {
     pub fn try_clone(&self) -> Result<Self> {
         let mut out: *mut mjModel = std::ptr::null_mut();
         // SAFETY: valid source model; the shim writes the new pointer on success.
-        guarded("mj_copyModel", |e, n| unsafe { guard::topa_copy_model(&mut out, self.raw(), e, n) })?;
+        guarded("mj_copyModel", |e, n| unsafe { guard::mjs_copy_model(&mut out, self.raw(), e, n) })?;
         NonNull::new(out)
             .map(|ptr| Model { ptr })
             .ok_or_else(|| MujocoError::Fatal { call: "mj_copyModel", message: "allocation failed".into() })
@@ -227,7 +227,7 @@ fn load(filename: &CStr, vfs: Option<&Vfs>, source_name: &str) -> Result<Model> 
     let mut out: *mut mjModel = std::ptr::null_mut();
     let vfs_ptr = vfs.map_or(std::ptr::null(), |v| v.as_ptr());
     // SAFETY: valid C strings and buffers; the shim guards mju_error.
-    let rc = unsafe { guard::topa_load_xml(filename.as_ptr(), vfs_ptr, &mut out, err.as_mut_ptr(), ERR_LEN as i32) };
+    let rc = unsafe { guard::mjs_load_xml(filename.as_ptr(), vfs_ptr, &mut out, err.as_mut_ptr(), ERR_LEN as i32) };
     let message = c_buf_to_string(&err);
     match NonNull::new(out) {
         Some(ptr) if rc == 0 => {

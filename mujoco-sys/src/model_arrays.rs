@@ -98,7 +98,6 @@ read_arrays! {
     actuator_ctrllimited: u8, nu;
     actuator_forcelimited: u8, nu;
     actuator_ctrlrange: [f64; 2], nu;
-    actuator_forcerange: [f64; 2], nu;
     actuator_gear: [f64; 6], nu;
     sensor_type: i32, nsensor;
     sensor_objid: i32, nsensor;
@@ -129,6 +128,8 @@ write_arrays! {
     actuator_gainprm / actuator_gainprm_mut: [f64; mjNGAIN as usize], nu;
     /// Actuator bias parameters (`biasprm`, 10 per actuator).
     actuator_biasprm / actuator_biasprm_mut: [f64; mjNBIAS as usize], nu;
+    /// Actuator force limits [low, high] (N·m for these joints), applied where `actuator_forcelimited`.
+    actuator_forcerange / actuator_forcerange_mut: [f64; 2], nu;
 }
 
 impl Model {

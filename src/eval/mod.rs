@@ -17,6 +17,7 @@ use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
 use topa_env::env::{OBS_LAST_ACTION, OBS_Q, OBS_QD};
 use topa_env::robot::{self, ModelKind, N_MOTORS};
+use topa_env::sim2sim::Sim2SimConfig;
 use topa_env::EnvConfig;
 use trainer::policy_file::Policy;
 
@@ -24,7 +25,12 @@ use trainer::policy_file::Policy;
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct EvalSettings {
     /// Physics timestep, s (training: 0.005). The policy period is kept: decimation = policy_dt / timestep.
-    pub timestep: f64,
+    /// `None`: the sim2sim mode's own timestep if it has one, else 0.0025.
+    pub timestep: Option<f64>,
+    /// "ideal", "realistic", or the sim2sim file used.
+    pub sim2sim_mode: String,
+    /// The sensor, estimator, latency and motor models (all off: ideal).
+    pub sim2sim: Sim2SimConfig,
     /// "model" = the MJCF's RK4, which keeps the linkage exact.
     pub integrator: String,
     /// Standing still on a zero command before each experiment starts, s.
@@ -34,9 +40,47 @@ pub struct EvalSettings {
     pub seed: u64,
 }
 
+/// The realistic mode's models (configs/sim2sim/realistic.toml, built in).
+const REALISTIC: &str = include_str!("../../configs/sim2sim/realistic.toml");
+
+impl EvalSettings {
+    /// The physics timestep the experiments run at.
+    pub fn timestep(&self) -> f64 {
+        self.timestep.unwrap_or(if self.sim2sim.timestep > 0.0 { self.sim2sim.timestep } else { 0.0025 })
+    }
+
+    /// Sets the sim2sim mode: "ideal", "realistic", or a TOML file of models (which may start from another with
+    /// `base = "…"`; configs/sim2sim/realistic.toml is the reference).
+    pub fn with_sim2sim(mut self, spec: &str) -> Result<Self> {
+        let cfg = match spec {
+            "ideal" => Sim2SimConfig::default(),
+            "realistic" => toml::from_str(REALISTIC)
+                .map_err(|e| anyhow::anyhow!("built-in configs/sim2sim/realistic.toml: {e}"))?,
+            file => {
+                let table = trainer::config::load_table(Path::new(file), 0)?;
+                toml::Value::Table(table)
+                    .try_into()
+                    .map_err(|e| anyhow::anyhow!("sim2sim file {file}: {}", e.to_string().replace('\n', " ")))?
+            }
+        };
+        cfg.validate().map_err(|e| anyhow::anyhow!("sim2sim '{spec}': {e}"))?;
+        self.sim2sim = cfg;
+        self.sim2sim_mode = spec.to_string();
+        Ok(self)
+    }
+}
+
 impl Default for EvalSettings {
     fn default() -> Self {
-        EvalSettings { timestep: 0.0025, integrator: "model".into(), settle_s: 2.0, threads: 0, seed: 1 }
+        EvalSettings {
+            timestep: None,
+            sim2sim_mode: "ideal".into(),
+            sim2sim: Sim2SimConfig::default(),
+            integrator: "model".into(),
+            settle_s: 2.0,
+            threads: 0,
+            seed: 1,
+        }
     }
 }
 
@@ -84,12 +128,13 @@ impl PolicyRunner {
         let mut c = train.for_evaluation();
         c.model = ModelKind::Closed;
         c.integrator = s.integrator.clone();
-        c.timestep = s.timestep;
-        let dec = self.policy.meta.policy_dt / s.timestep;
+        c.timestep = s.timestep();
+        c.sim2sim = s.sim2sim.clone();
+        let dec = self.policy.meta.policy_dt / c.timestep;
         if (dec - dec.round()).abs() > 1e-6 || dec.round() < 1.0 {
             bail!(
                 "the evaluation timestep {} s does not divide the policy period {} s",
-                s.timestep,
+                c.timestep,
                 self.policy.meta.policy_dt
             );
         }

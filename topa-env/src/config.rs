@@ -32,6 +32,9 @@ pub struct EnvConfig {
     pub domain_rand: DomainRandConfig,
     pub push: PushConfig,
     pub termination: TerminationConfig,
+    /// Realistic sim2sim: state estimator, sensor noise, latency, torque–speed limits (default: all off, the
+    /// ideal simulator). In training, `[env.sim2sim.estimator] enabled = true` trains on the estimator's output.
+    pub sim2sim: crate::sim2sim::Sim2SimConfig,
 }
 
 impl Default for EnvConfig {
@@ -50,6 +53,7 @@ impl Default for EnvConfig {
             domain_rand: DomainRandConfig::default(),
             push: PushConfig::default(),
             termination: TerminationConfig::default(),
+            sim2sim: Default::default(),
         }
     }
 }
@@ -333,6 +337,7 @@ impl EnvConfig {
             )));
         }
         check_positive("termination.max_tilt", self.termination.max_tilt)?;
+        self.sim2sim.validate().map_err(EnvError::Config)?;
         Ok(())
     }
 
@@ -353,7 +358,7 @@ impl EnvConfig {
     /// Whether the env reads MuJoCo's sensors (the IMU). The paper's observation comes from the simulator's state,
     /// so sensors are skipped unless a consumer of them is configured.
     pub fn needs_sensors(&self) -> bool {
-        false
+        self.sim2sim.needs_sensors()
     }
 
     /// The policy period, s.

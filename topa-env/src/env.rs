@@ -14,6 +14,7 @@ use crate::indices::RobotIndices;
 use crate::perturb::Perturbation;
 use crate::rewards::{self, RewardInputs, N_TERMS, TERM_NAMES};
 use crate::robot::{self, N_MOTORS};
+use crate::sim2sim::{Sensed, Sim2Sim};
 use crate::state::{self, quat_of, RobotState};
 use crate::symmetry::{self, Symmetry};
 use crate::task::{self, StepOutcome, Task};
@@ -67,6 +68,8 @@ pub struct TopaEnv {
     physics_ns: u64,
     /// A capacity error of the last step (the run must stop: resetting would hide a model that is too small).
     fatal: Option<EnvError>,
+    /// Realistic sim2sim (estimator, sensor noise, latency, torque–speed limits), when configured.
+    sim2sim: Option<Sim2Sim>,
 }
 
 impl TopaEnv {
@@ -113,6 +116,11 @@ impl TopaEnv {
             [mid - half, mid + half]
         });
         let torque_soft_limit = idx.torque_limit.map(|t| t * cfg.rewards.soft_torque_limit);
+        let sim2sim = if cfg.sim2sim.active() {
+            Some(Sim2Sim::new(Arc::new(cfg.sim2sim.clone()), model.clone(), &idx, seed, index)?)
+        } else {
+            None
+        };
         Ok(TopaEnv {
             data: Data::new(model)?,
             nominal_actuated: robot::nominal_actuated(kind),
@@ -138,6 +146,7 @@ impl TopaEnv {
             robot_state: RobotState::default(),
             physics_ns: 0,
             fatal: None,
+            sim2sim,
         })
     }
 
@@ -176,12 +185,17 @@ impl TopaEnv {
     pub fn episode_steps(&self) -> usize {
         self.step_count
     }
+    /// The realistic-sim2sim state (estimator, sensors), if configured.
+    pub fn sim2sim(&self) -> Option<&Sim2Sim> {
+        self.sim2sim.as_ref()
+    }
 
     /// After editing the state through `data_mut`: recompute derived quantities and the observation.
     pub fn refresh(&mut self, obs: &mut [f32]) -> Result<()> {
         self.data.forward()?;
         self.robot_state = state::read(&self.data, &self.idx);
-        self.write_obs(obs);
+        let sensed = self.sim2sim.as_ref().map(|s| *s.latest());
+        self.write_obs(obs, sensed.as_ref());
         Ok(())
     }
 
@@ -221,18 +235,27 @@ impl TopaEnv {
         Ok(())
     }
 
-    fn write_obs(&mut self, obs: &mut [f32]) {
+    /// The observation: the simulator's state, or with realistic sim2sim what the robot's computer `sensed`.
+    fn write_obs(&mut self, obs: &mut [f32], sensed: Option<&Sensed>) {
         let s = &self.robot_state;
+        let truth = Sensed {
+            lin_vel: s.lin_vel,
+            ang_vel: s.ang_vel,
+            gravity: s.gravity,
+            actuated_pos: s.actuated_pos,
+            actuated_vel: s.actuated_vel,
+        };
+        let x = sensed.unwrap_or(&truth);
         let n = &self.cfg.noise;
         let on = n.enabled;
         let rng = &mut self.rng;
         let mut noise = |scale: f64| if on && scale > 0.0 { rng.random_range(-scale..=scale) } else { 0.0 };
         for i in 0..3 {
-            obs[OBS_LIN_VEL + i] = (s.lin_vel[i] + noise(n.lin_vel)) as f32;
-            obs[OBS_ANG_VEL + i] = (s.ang_vel[i] + noise(n.ang_vel)) as f32;
+            obs[OBS_LIN_VEL + i] = (x.lin_vel[i] + noise(n.lin_vel)) as f32;
+            obs[OBS_ANG_VEL + i] = (x.ang_vel[i] + noise(n.ang_vel)) as f32;
         }
         let off = self.perturbation.gravity_offset;
-        let mut g = Vector3::from_fn(|i, _| s.gravity[i] + off[i] + noise(n.gravity));
+        let mut g = Vector3::from_fn(|i, _| x.gravity[i] + off[i] + noise(n.gravity));
         if g.norm() > 1e-9 {
             g.normalize_mut();
         }
@@ -240,8 +263,8 @@ impl TopaEnv {
             obs[OBS_GRAVITY + i] = g[i] as f32;
         }
         for i in 0..N_MOTORS {
-            obs[OBS_Q + i] = (s.actuated_pos[i] - self.nominal_actuated[i] + noise(n.motor_pos)) as f32;
-            obs[OBS_QD + i] = (s.actuated_vel[i] + noise(n.motor_vel)) as f32;
+            obs[OBS_Q + i] = (x.actuated_pos[i] - self.nominal_actuated[i] + noise(n.motor_pos)) as f32;
+            obs[OBS_QD + i] = (x.actuated_vel[i] + noise(n.motor_vel)) as f32;
             obs[OBS_LAST_ACTION + i] = self.last_action[i] as f32;
         }
         let c = self.command();
@@ -294,9 +317,20 @@ impl TopaEnv {
     fn simulate(&mut self) -> bool {
         let start = std::time::Instant::now();
         let mut ok = true;
+        let dt = self.cfg.timestep;
         for _ in 0..self.cfg.decimation {
+            if let Some(s) = &mut self.sim2sim {
+                s.before_physics_step(&mut self.data, &self.idx);
+            }
             self.apply_forces();
-            if let Err(e) = self.data.step() {
+            let mut r = self.data.step();
+            if let (Ok(()), Some(s)) = (&r, &mut self.sim2sim) {
+                r = s.after_physics_step(&self.data, &self.idx, dt).map_err(|e| match e {
+                    EnvError::Mujoco(m) => m,
+                    other => mujoco_sys::MujocoError::Invalid(other.to_string()),
+                });
+            }
+            if let Err(e) = r {
                 if matches!(e, mujoco_sys::MujocoError::Capacity { .. }) {
                     self.fatal = Some(e.into());
                 }
@@ -343,7 +377,14 @@ impl Task for TopaEnv {
         self.next_resample = self.steps_of(self.cfg.commands.resample_s);
         self.next_push = self.steps_of(self.cfg.push.interval_s);
         self.robot_state = state::read(&self.data, &self.idx);
-        self.write_obs(obs);
+        let sensed = match &mut self.sim2sim {
+            Some(s) => {
+                s.reset(&self.data, &self.idx, self.cfg.decimation)?;
+                Some(s.sensed())
+            }
+            None => None,
+        };
+        self.write_obs(obs, sensed.as_ref());
         Ok(())
     }
 
@@ -358,9 +399,17 @@ impl Task for TopaEnv {
                 0.0
             }
         });
-        for i in 0..N_MOTORS {
-            let target = self.nominal_actuated[i] + self.cfg.action_scale * a[i];
-            self.data.ctrl_mut()[self.idx.actuators[i]] = target.clamp(self.ctrl_range[i][0], self.ctrl_range[i][1]);
+        let target: [f64; N_MOTORS] = std::array::from_fn(|i| {
+            (self.nominal_actuated[i] + self.cfg.action_scale * a[i])
+                .clamp(self.ctrl_range[i][0], self.ctrl_range[i][1])
+        });
+        match &mut self.sim2sim {
+            Some(s) => s.set_target(target),
+            None => {
+                for i in 0..N_MOTORS {
+                    self.data.ctrl_mut()[self.idx.actuators[i]] = target[i];
+                }
+            }
         }
         if !self.simulate() {
             self.terms = [0.0; N_TERMS];
@@ -418,7 +467,8 @@ impl Task for TopaEnv {
             self.push();
             self.next_push += self.steps_of(self.cfg.push.interval_s);
         }
-        self.write_obs(obs);
+        let sensed = self.sim2sim.as_mut().map(|s| s.sensed());
+        self.write_obs(obs, sensed.as_ref());
         let finite = reward.is_finite() && obs.iter().all(|x| x.is_finite());
         StepOutcome { reward, done: fell || time_out || !finite, time_out, diverged: !finite }
     }
@@ -471,6 +521,9 @@ impl Task for TopaEnv {
         u.extend(self.last_contact.map(|c| c as u64));
         u.push(self.experience_steps);
         task::save_rng(&self.rng, u);
+        if let Some(s) = &self.sim2sim {
+            s.save(f, u);
+        }
     }
 
     fn load_state(&mut self, f: &[f64], u: &[u64]) -> Result<(usize, usize)> {
@@ -542,6 +595,12 @@ impl Task for TopaEnv {
         self.last_contact = [w[4] != 0, w[5] != 0];
         self.experience_steps = w[6];
         self.rng = task::load_rng(&w[7..]);
+        let (mut fi, mut need) = (fi, need);
+        if let Some(s) = &mut self.sim2sim {
+            let (a, b) = s.load(f.get(fi..).unwrap_or(&[]), u.get(need..).unwrap_or(&[]))?;
+            fi += a;
+            need += b;
+        }
         // Derived quantities (contacts, velocities) for the observation and the next reward.
         self.data.forward()?;
         self.robot_state = state::read(&self.data, &self.idx);

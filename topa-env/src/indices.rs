@@ -26,6 +26,9 @@ pub struct RobotIndices {
     pub foot_geoms: [usize; 2],
     /// Sites at the centre of each sole (`l_foot_site`, `r_foot_site`).
     pub foot_sites: [usize; 2],
+    /// The IMU site and the address of its accelerometer (`imu_acc`) in `sensordata`.
+    pub imu_site: usize,
+    pub imu_accel: usize,
     pub floor_geom: usize,
     /// Bodies whose contact with the floor ends an episode (everything but the feet).
     pub fall_bodies: Vec<usize>,
@@ -130,6 +133,8 @@ impl RobotIndices {
             foot_bodies,
             foot_geoms: [lf.1, rf.1],
             foot_sites: [id(ObjType::Site, "l_foot_site")?, id(ObjType::Site, "r_foot_site")?],
+            imu_site: id(ObjType::Site, "imu")?,
+            imu_accel: model.sensor_adr()[id(ObjType::Sensor, "imu_acc")?] as usize,
             floor_geom,
             fall_bodies,
             loops,

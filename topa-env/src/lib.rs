@@ -8,6 +8,7 @@ pub mod indices;
 pub mod perturb;
 pub mod rewards;
 pub mod robot;
+pub mod sim2sim;
 pub mod state;
 pub mod symmetry;
 pub mod task;

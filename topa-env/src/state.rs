@@ -96,8 +96,18 @@ pub fn read(d: &Data, idx: &RobotIndices) -> RobotState {
             s.joint_torque = actuated_torque;
         }
     }
-    for c in d.contacts().iter().enumerate() {
-        let (i, con) = c;
+    (s.foot_force, s.body_contact) = contact_forces(d, idx);
+    for f in 0..2 {
+        let v = d.body_velocity(idx.foot_bodies[f], false);
+        s.foot_speed[f] = v[3].hypot(v[4]);
+    }
+    s
+}
+
+/// Normal force of the floor on each foot (N), and whether any other robot body touches the floor.
+pub fn contact_forces(d: &Data, idx: &RobotIndices) -> ([f64; 2], bool) {
+    let (mut force, mut body_contact) = ([0.0; 2], false);
+    for (i, con) in d.contacts().iter().enumerate() {
         let (g1, g2) = (con.geom1 as usize, con.geom2 as usize);
         let other = if g1 == idx.floor_geom {
             g2
@@ -107,14 +117,19 @@ pub fn read(d: &Data, idx: &RobotIndices) -> RobotState {
             continue;
         };
         if let Some(f) = idx.foot_geoms.iter().position(|&fg| fg == other) {
-            s.foot_force[f] += d.contact_force(i).map(|w| w[0]).unwrap_or(0.0);
+            force[f] += d.contact_force(i).map(|w| w[0]).unwrap_or(0.0);
         } else if idx.fall_bodies.contains(&(d.model().geom_bodyid()[other] as usize)) {
-            s.body_contact = true;
+            body_contact = true;
         }
     }
-    for f in 0..2 {
-        let v = d.body_velocity(idx.foot_bodies[f], false);
-        s.foot_speed[f] = v[3].hypot(v[4]);
-    }
-    s
+    (force, body_contact)
+}
+
+/// The base's linear velocity in the torso frame, straight from the simulator.
+pub fn read_base_velocity(d: &Data, idx: &RobotIndices) -> [f64; 3] {
+    let b = idx.base_qpos;
+    let q = quat_of(&d.qpos()[b + 3..b + 7]);
+    let dof = idx.base_dof;
+    let v = q.inverse_transform_vector(&Vector3::new(d.qvel()[dof], d.qvel()[dof + 1], d.qvel()[dof + 2]));
+    [v.x, v.y, v.z]
 }

@@ -267,7 +267,7 @@ fn one_line(s: &str) -> String {
 }
 
 /// A config file's table with its `base` chain merged in (at most 8 levels, so a cycle is an error).
-fn load_table(path: &Path, depth: usize) -> Result<toml::Table, ConfigError> {
+pub fn load_table(path: &Path, depth: usize) -> Result<toml::Table, ConfigError> {
     let p = path.display().to_string();
     if depth > 8 {
         return Err(ConfigError::Invalid { path: p, message: "`base` chain deeper than 8 files (a cycle?)".into() });

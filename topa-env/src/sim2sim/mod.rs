@@ -1,0 +1,428 @@
+//! Realistic sim2sim: what separates the simulator's true state from what the robot's computer sees and does.
+//! The policy then reads an IMU with noise and bias, quantised encoders, and a base velocity from the robot's
+//! contact-aided Kalman filter (`estimator`) instead of the simulator's; its actions reach the motors late; the
+//! motors lose torque with speed. Every model is switchable; all draw from the env's own sim2sim stream, so a
+//! seed fixes them and the ideal path's random draws are untouched.
+//!
+//! The env calls `before_physics_step` and `after_physics_step` around every `mj_step` (the filter runs at the
+//! physics rate, as the robot's at its IMU rate) and `sensed` when it writes an observation.
+
+pub mod estimator;
+pub mod kinematics;
+pub mod sensors;
+
+use std::sync::Arc;
+
+use mujoco_sys::{Data, Model};
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::error::Result;
+use crate::indices::RobotIndices;
+use crate::robot::{self, N_LEG, N_MOTORS};
+use crate::state::{self, quat_of};
+use crate::task;
+use estimator::{ContactKf, EstimatorConfig, EstimatorInput};
+use kinematics::LegKinematics;
+use sensors::{Delay, EncoderConfig, Noise3, NoiseConfig};
+
+/// Every realistic-sim2sim model; the default is the ideal simulator (all off).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct Sim2SimConfig {
+    /// The policy's linear velocity comes from the contact-aided Kalman filter (else: the simulator's).
+    pub estimator: EstimatorSettings,
+    /// Gyro noise, rad/s.
+    pub gyro: NoiseConfig,
+    /// Accelerometer noise, m/s².
+    pub accel: NoiseConfig,
+    /// Orientation error of the IMU's attitude output (a small rotation per axis), rad.
+    pub orientation: NoiseConfig,
+    pub encoders: EncoderConfig,
+    pub latency: LatencyConfig,
+    pub torque_speed: TorqueSpeedConfig,
+    /// Physics timestep for evaluations run in this mode, s (0 = the evaluation's own). The motor drivers run
+    /// their PD at kHz rates; MuJoCo applies the PD once per physics step.
+    pub timestep: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct EstimatorSettings {
+    pub enabled: bool,
+    /// A foot with more normal force than this is in contact (the robot's contact detection), N.
+    pub contact_threshold: f64,
+    #[serde(flatten)]
+    pub filter: EstimatorConfig,
+}
+
+/// Delays, in whole policy or physics steps.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct LatencyConfig {
+    /// The policy sees sensor readings this many policy steps old.
+    pub observation_policy_steps: usize,
+    /// An action reaches the motors this many policy steps …
+    pub action_policy_steps: usize,
+    /// … plus this many physics steps after it was computed.
+    pub action_physics_steps: usize,
+}
+
+/// Torque–speed limit of the motors (MuJoCo's actuators have a fixed force range): full torque up to
+/// `full_torque_speed`, then falling linearly to zero at `no_load_speed` while the motor drives in the direction it
+/// turns; braking keeps the full torque. Per leg degree of freedom (hip roll, yaw, pitch, knee, ankle), rad/s
+/// at the output.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct TorqueSpeedConfig {
+    pub enabled: bool,
+    pub full_torque_speed: [f64; N_LEG],
+    pub no_load_speed: [f64; N_LEG],
+}
+
+impl TorqueSpeedConfig {
+    /// The largest torque in the direction of motion at output speed `speed`, for peak torque `peak`.
+    pub fn limit(&self, dof: usize, peak: f64, speed: f64) -> f64 {
+        let (w1, w0) = (self.full_torque_speed[dof], self.no_load_speed[dof]);
+        let s = speed.abs();
+        if s <= w1 {
+            peak
+        } else if s >= w0 {
+            0.0
+        } else {
+            peak * (w0 - s) / (w0 - w1)
+        }
+    }
+}
+
+impl Sim2SimConfig {
+    /// Anything on at all (else the env runs the ideal path, bit for bit as without this module).
+    pub fn active(&self) -> bool {
+        let l = self.latency;
+        self.estimator.enabled
+            || self.gyro.enabled
+            || self.accel.enabled
+            || self.orientation.enabled
+            || self.encoders.enabled
+            || l.observation_policy_steps + l.action_policy_steps + l.action_physics_steps > 0
+            || self.torque_speed.enabled
+    }
+
+    /// The IMU is read (MuJoCo's sensors must be computed).
+    pub fn needs_sensors(&self) -> bool {
+        self.estimator.enabled || self.gyro.enabled || self.accel.enabled || self.orientation.enabled
+    }
+
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        for (name, n) in [("gyro", self.gyro), ("accel", self.accel), ("orientation", self.orientation)] {
+            if [n.white, n.bias_initial, n.bias_walk].iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+                return Err(format!("sim2sim.{name}: noise values must be finite and ≥ 0"));
+            }
+        }
+        let e = &self.encoders;
+        if !(e.counts_per_rev >= 0.0 && e.velocity_noise >= 0.0) {
+            return Err("sim2sim.encoders: counts_per_rev and velocity_noise must be ≥ 0".into());
+        }
+        let t = &self.torque_speed;
+        if t.enabled
+            && (0..N_LEG).any(|i| !(t.full_torque_speed[i] >= 0.0 && t.no_load_speed[i] > t.full_torque_speed[i]))
+        {
+            return Err("sim2sim.torque_speed: need 0 ≤ full_torque_speed < no_load_speed for every joint".into());
+        }
+        let f = &self.estimator.filter;
+        let vals = [
+            f.q_position,
+            f.q_velocity,
+            f.q_foot,
+            f.r_foot_position,
+            f.r_foot_velocity,
+            f.r_foot_height,
+            f.swing_scale,
+        ];
+        if self.estimator.enabled && vals.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err("sim2sim.estimator: every covariance and swing_scale must be positive".into());
+        }
+        if !(self.timestep >= 0.0 && self.timestep.is_finite()) {
+            return Err("sim2sim.timestep must be ≥ 0 (0 = the evaluation's own)".into());
+        }
+        Ok(())
+    }
+}
+
+/// What the robot's computer knows after a step.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Sensed {
+    /// Base linear velocity in the torso frame (estimated, or the simulator's when the filter is off).
+    pub lin_vel: [f64; 3],
+    pub ang_vel: [f64; 3],
+    pub gravity: [f64; 3],
+    pub actuated_pos: [f64; N_MOTORS],
+    pub actuated_vel: [f64; N_MOTORS],
+}
+
+/// One env's realistic-sim2sim state.
+pub struct Sim2Sim {
+    cfg: Arc<Sim2SimConfig>,
+    rng: ChaCha8Rng,
+    gyro: Noise3,
+    accel: Noise3,
+    orientation: Noise3,
+    kf: ContactKf,
+    kin: LegKinematics,
+    obs_delay: Delay<Sensed>,
+    action_delay: Delay<[f64; N_MOTORS]>,
+    target: [f64; N_MOTORS],
+    latest: Sensed,
+    /// The IMU's latest attitude and specific-force readings (world ← IMU; IMU frame).
+    imu_orientation: UnitQuaternion<f64>,
+    imu_accel: [f64; 3],
+    /// The estimator's velocity in the world frame, and the IMU orientation it used (for recordings).
+    pub estimate_world: Vector3<f64>,
+    /// Filter resets after invalid sensor values, since the env was made.
+    pub filter_resets: u64,
+    peak_torque: [f64; N_MOTORS],
+}
+
+/// Standard gravity the accelerometer's specific force is corrected by, m/s² (the MJCF's).
+const GRAVITY: f64 = 9.81;
+
+/// The stream offset that separates sim2sim draws from the env's own (whose stream is the env index).
+const STREAM_OFFSET: u64 = 1 << 40;
+
+impl Sim2Sim {
+    pub fn new(cfg: Arc<Sim2SimConfig>, model: Arc<Model>, idx: &RobotIndices, seed: u64, index: u64) -> Result<Self> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(index + STREAM_OFFSET);
+        let delay = cfg.latency;
+        Ok(Sim2Sim {
+            kf: ContactKf::new(cfg.estimator.filter.clone(), 2),
+            kin: LegKinematics::new(model, idx)?,
+            obs_delay: Delay::new(delay.observation_policy_steps, Sensed::default()),
+            action_delay: Delay::new(0, [0.0; N_MOTORS]),
+            rng,
+            gyro: Noise3::default(),
+            accel: Noise3::default(),
+            orientation: Noise3::default(),
+            target: [0.0; N_MOTORS],
+            latest: Sensed::default(),
+            imu_orientation: UnitQuaternion::identity(),
+            imu_accel: [0.0; 3],
+            estimate_world: Vector3::zeros(),
+            filter_resets: 0,
+            peak_torque: idx.torque_limit,
+            cfg,
+        })
+    }
+
+    pub fn config(&self) -> &Sim2SimConfig {
+        &self.cfg
+    }
+
+    /// At an episode's start: new biases, empty delays holding the initial targets, the filter at rest.
+    pub fn reset(&mut self, d: &Data, idx: &RobotIndices, decimation: usize) -> Result<()> {
+        let c = &self.cfg;
+        self.gyro.reset(&c.gyro, &mut self.rng);
+        self.accel.reset(&c.accel, &mut self.rng);
+        self.orientation.reset(&c.orientation, &mut self.rng);
+        let ctrl: [f64; N_MOTORS] = std::array::from_fn(|i| d.ctrl()[idx.actuators[i]]);
+        self.target = ctrl;
+        let l = c.latency;
+        self.action_delay = Delay::new(l.action_policy_steps * decimation + l.action_physics_steps, ctrl);
+        self.sense(d, idx, 0.0)?;
+        self.reset_filter(idx);
+        self.sense_velocity(d, idx);
+        self.obs_delay.reset(self.latest);
+        Ok(())
+    }
+
+    /// The policy's new motor targets (applied through the action delay).
+    pub fn set_target(&mut self, target: [f64; N_MOTORS]) {
+        self.target = target;
+    }
+
+    /// Before each `mj_step`: the delayed targets and the torque–speed limits go into the model and data.
+    pub fn before_physics_step(&mut self, d: &mut Data, idx: &RobotIndices) {
+        let applied = self.action_delay.push(self.target);
+        for i in 0..N_MOTORS {
+            d.ctrl_mut()[idx.actuators[i]] = applied[i];
+        }
+        let ts = self.cfg.torque_speed;
+        if ts.enabled {
+            let speeds: Vec<f64> = idx.actuators.iter().map(|&a| d.actuator_velocity()[a]).collect();
+            let m = d.model_mut();
+            for i in 0..N_MOTORS {
+                let peak = self.peak_torque[i];
+                let lim = ts.limit(i % N_LEG, peak, speeds[i]);
+                // Driving in the direction of motion is limited; braking against it keeps the peak torque.
+                m.actuator_forcerange_mut()[idx.actuators[i]] =
+                    if speeds[i] >= 0.0 { [-peak, lim] } else { [-lim, peak] };
+            }
+        }
+    }
+
+    /// After each `mj_step` of `dt` seconds: read the sensors, run the filter.
+    pub fn after_physics_step(&mut self, d: &Data, idx: &RobotIndices, dt: f64) -> Result<()> {
+        self.sense(d, idx, dt)?;
+        if self.cfg.estimator.enabled {
+            let input = self.filter_input(d, idx);
+            if !self.kf.step(dt, &input) {
+                self.filter_resets += 1;
+                if self.filter_resets <= 5 || self.filter_resets.is_power_of_two() {
+                    log::warn!(
+                        "state estimator: invalid sensor values or a failed update; filter reset (#{})",
+                        self.filter_resets
+                    );
+                }
+                self.reset_filter(idx);
+            }
+        }
+        self.sense_velocity(d, idx);
+        Ok(())
+    }
+
+    /// What the policy sees this step: the readings of `observation_policy_steps` ago.
+    pub fn sensed(&mut self) -> Sensed {
+        self.obs_delay.push(self.latest)
+    }
+
+    /// The newest readings (no observation delay).
+    pub fn latest(&self) -> &Sensed {
+        &self.latest
+    }
+
+    /// IMU and encoders (everything but the linear velocity).
+    fn sense(&mut self, d: &Data, idx: &RobotIndices, dt: f64) -> Result<()> {
+        let c = self.cfg.clone();
+        let b = idx.base_qpos;
+        let q_true = quat_of(&d.qpos()[b + 3..b + 7]);
+        let w_true = [d.qvel()[idx.base_dof + 3], d.qvel()[idx.base_dof + 4], d.qvel()[idx.base_dof + 5]];
+        self.latest.ang_vel = self.gyro.corrupt(&c.gyro, w_true, dt, &mut self.rng);
+        let err = self.orientation.corrupt(&c.orientation, [0.0; 3], dt, &mut self.rng);
+        let q_meas = q_true * UnitQuaternion::from_scaled_axis(Vector3::from(err));
+        let g = q_meas.inverse_transform_vector(&Vector3::new(0.0, 0.0, -1.0));
+        self.latest.gravity = [g.x, g.y, g.z];
+        self.imu_orientation = q_meas;
+        if c.estimator.enabled {
+            let a = &d.sensordata()[idx.imu_accel..idx.imu_accel + 3];
+            self.imu_accel = self.accel.corrupt(&c.accel, [a[0], a[1], a[2]], dt, &mut self.rng);
+        }
+        for i in 0..N_MOTORS {
+            self.latest.actuated_pos[i] = c.encoders.quantise(d.qpos()[idx.actuated_qpos[i]]);
+            self.latest.actuated_vel[i] = c.encoders.velocity(d.qvel()[idx.actuated_dof[i]], &mut self.rng);
+        }
+        Ok(())
+    }
+
+    /// The linear velocity the policy gets: the filter's (rotated into the measured torso frame), or the truth.
+    fn sense_velocity(&mut self, d: &Data, idx: &RobotIndices) {
+        let v = if self.cfg.estimator.enabled {
+            self.estimate_world = self.kf.velocity();
+            self.imu_orientation.inverse_transform_vector(&self.estimate_world)
+        } else {
+            Vector3::from(state::read_base_velocity(d, idx))
+        };
+        self.latest.lin_vel = [v.x, v.y, v.z];
+    }
+
+    fn filter_input(&mut self, d: &Data, idx: &RobotIndices) -> EstimatorInput {
+        let r = self.imu_orientation;
+        let joints = joint_space(idx, &self.latest.actuated_pos);
+        let joint_vel = joint_space(idx, &self.latest.actuated_vel);
+        let feet = self.kin.feet(&joints, &joint_vel);
+        let w = Vector3::from(self.latest.ang_vel);
+        let accel = r.transform_vector(&Vector3::from(self.imu_accel)) + Vector3::new(0.0, 0.0, -GRAVITY);
+        let (forces, _) = state::contact_forces(d, idx);
+        EstimatorInput {
+            accel,
+            foot_rel: feet.iter().map(|f| r.transform_vector(&f.position)).collect(),
+            foot_vel: feet.iter().map(|f| -r.transform_vector(&(w.cross(&f.position) + f.velocity))).collect(),
+            contact: forces.iter().map(|&f| f > self.cfg.estimator.contact_threshold).collect(),
+            foot_spin: feet.iter().map(|f| (w + f.angular_velocity).norm()).collect(),
+        }
+    }
+
+    /// Restarts the filter at rest, the base as high above the ground as the feet are below it (what the robot
+    /// knows from its own kinematics when it stands).
+    fn reset_filter(&mut self, idx: &RobotIndices) {
+        let joints = joint_space(idx, &self.latest.actuated_pos);
+        let joint_vel = joint_space(idx, &self.latest.actuated_vel);
+        let r = self.imu_orientation;
+        let feet: Vec<Vector3<f64>> =
+            self.kin.feet(&joints, &joint_vel).iter().map(|f| r.transform_vector(&f.position)).collect();
+        let height = -feet.iter().map(|f| f.z).sum::<f64>() / feet.len() as f64;
+        self.kf.reset(height, &feet);
+    }
+
+    /// Appends the sim2sim state (snapshots for exact resume of a training run that uses it).
+    pub fn save(&self, f: &mut Vec<f64>, u: &mut Vec<u64>) {
+        for n in [&self.gyro, &self.accel, &self.orientation] {
+            f.extend_from_slice(&n.bias);
+        }
+        self.kf.save(f);
+        f.extend_from_slice(&self.target);
+        for s in self.obs_delay.items() {
+            f.extend(
+                s.lin_vel.iter().chain(&s.ang_vel).chain(&s.gravity).chain(&s.actuated_pos).chain(&s.actuated_vel),
+            );
+        }
+        for a in self.action_delay.items() {
+            f.extend_from_slice(a);
+        }
+        task::save_rng(&self.rng, u);
+        u.push(self.filter_resets);
+    }
+
+    /// Inverse of `save`; returns the values consumed.
+    pub fn load(&mut self, f: &[f64], u: &[u64]) -> Result<(usize, usize)> {
+        let need = 9
+            + self.kf.saved_len()
+            + N_MOTORS
+            + self.obs_delay.delay() * (9 + 2 * N_MOTORS)
+            + self.action_delay.delay() * N_MOTORS;
+        if f.len() < need || u.len() < task::RNG_WORDS + 1 {
+            return Err(crate::error::EnvError::Shape(
+                "env snapshot has no (or a different) realistic-sim2sim state for this config".into(),
+            ));
+        }
+        let mut k = 0;
+        for n in [&mut self.gyro, &mut self.accel, &mut self.orientation] {
+            n.bias.copy_from_slice(&f[k..k + 3]);
+            k += 3;
+        }
+        k += self.kf.load(&f[k..]);
+        self.target.copy_from_slice(&f[k..k + N_MOTORS]);
+        k += N_MOTORS;
+        let per = 9 + 2 * N_MOTORS;
+        let items: Vec<Sensed> = (0..self.obs_delay.delay())
+            .map(|j| {
+                let s = &f[k + j * per..k + (j + 1) * per];
+                Sensed {
+                    lin_vel: [s[0], s[1], s[2]],
+                    ang_vel: [s[3], s[4], s[5]],
+                    gravity: [s[6], s[7], s[8]],
+                    actuated_pos: std::array::from_fn(|i| s[9 + i]),
+                    actuated_vel: std::array::from_fn(|i| s[9 + N_MOTORS + i]),
+                }
+            })
+            .collect();
+        k += per * items.len();
+        self.obs_delay.set_items(items);
+        let n = self.action_delay.delay();
+        let acts: Vec<[f64; N_MOTORS]> = (0..n).map(|j| std::array::from_fn(|i| f[k + j * N_MOTORS + i])).collect();
+        k += n * N_MOTORS;
+        self.action_delay.set_items(acts);
+        self.rng = task::load_rng(u);
+        self.filter_resets = u[task::RNG_WORDS];
+        Ok((k, task::RNG_WORDS + 1))
+    }
+}
+
+/// Joint-space values (hip roll … ankle pitch) from the actuated space of the model the env runs.
+fn joint_space(idx: &RobotIndices, actuated: &[f64; N_MOTORS]) -> [f64; N_MOTORS] {
+    match idx.kind {
+        robot::ModelKind::Closed => robot::motor_to_joint(actuated),
+        robot::ModelKind::Open => *actuated,
+    }
+}
