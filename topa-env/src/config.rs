@@ -147,6 +147,10 @@ pub enum AirTimeForm {
     /// The paper's equation with its sign turned: −Σ|t_air − target| (with the positive weight, a penalty that is
     /// zero for steps of exactly the target air time).
     NegAbs,
+    /// IsaacLab's `feet_air_time_positive_biped` (the paper trained in IsaacLab): every step in single stance
+    /// pays the shorter of the two feet's time in their current mode (stance or swing), capped at the target,
+    /// while a motion is commanded (‖c‖ > 0.1, yaw included so that turning in place steps too).
+    PositiveBiped,
 }
 
 impl Default for RewardConfig {

@@ -59,6 +59,8 @@ pub struct TopaEnv {
     perturbation: Perturbation,
     last_action: [f64; N_MOTORS],
     air_time: [f64; 2],
+    /// Time each foot has been in contact without a break, s.
+    contact_time: [f64; 2],
     last_contact: [bool; 2],
     next_resample: usize,
     next_push: usize,
@@ -139,6 +141,7 @@ impl TopaEnv {
             perturbation: Perturbation::default(),
             last_action: [0.0; N_MOTORS],
             air_time: [0.0; 2],
+            contact_time: [0.0; 2],
             last_contact: [true; 2],
             next_resample: 0,
             next_push: 0,
@@ -371,6 +374,7 @@ impl Task for TopaEnv {
         self.step_count = 0;
         self.last_action = [0.0; N_MOTORS];
         self.air_time = [0.0; 2];
+        self.contact_time = [0.0; 2];
         self.last_contact = [true; 2];
         self.terms = [0.0; N_TERMS];
         self.sample_command();
@@ -425,6 +429,7 @@ impl Task for TopaEnv {
         let touchdown: [bool; 2] = std::array::from_fn(|f| filtered[f] && self.air_time[f] > 0.0);
         for f in 0..2 {
             self.air_time[f] += dt;
+            self.contact_time[f] = if contact[f] { self.contact_time[f] + dt } else { 0.0 };
         }
         let air_at_touchdown = self.air_time;
         let s = &self.robot_state;
@@ -446,6 +451,7 @@ impl Task for TopaEnv {
             foot_contact: contact,
             touchdown,
             air_time: air_at_touchdown,
+            mode_time: std::array::from_fn(|f| if contact[f] { self.contact_time[f] } else { self.air_time[f] }),
         };
         let scale = if self.cfg.rewards.scale_by_dt { dt } else { 1.0 };
         let reward = rewards::weighted_terms(&self.cfg.rewards, &inputs, scale, &mut self.terms);
@@ -517,6 +523,7 @@ impl Task for TopaEnv {
         f.extend_from_slice(&p.torso_force_local);
         f.extend_from_slice(&self.last_action);
         f.extend_from_slice(&self.air_time);
+        f.extend_from_slice(&self.contact_time);
         u.extend([self.step_count as u64, self.next_resample as u64, self.next_push as u64, o.is_some() as u64]);
         u.extend(self.last_contact.map(|c| c as u64));
         u.push(self.experience_steps);
@@ -586,6 +593,7 @@ impl Task for TopaEnv {
         };
         self.last_action.copy_from_slice(take(N_MOTORS)?);
         self.air_time.copy_from_slice(take(2)?);
+        self.contact_time.copy_from_slice(take(2)?);
         let need = 7 + task::RNG_WORDS;
         let w = u.get(..need).ok_or_else(|| EnvError::Shape("env snapshot too short".into()))?;
         self.step_count = w[0] as usize;

@@ -53,6 +53,8 @@ pub struct RewardInputs {
     pub touchdown: [bool; 2],
     /// Time the foot spent in the air before this touchdown, s.
     pub air_time: [f64; 2],
+    /// Time each foot has been in its current mode (in contact, or in the air), s.
+    pub mode_time: [f64; 2],
 }
 
 fn sq(x: f64) -> f64 {
@@ -81,8 +83,20 @@ pub fn raw_terms(c: &RewardConfig, x: &RewardInputs) -> [f64; N_TERMS] {
         AirTimeForm::Signed if moving => t - c.air_time_target,
         AirTimeForm::Signed => 0.0,
         AirTimeForm::NegAbs => -(t - c.air_time_target).abs(),
+        AirTimeForm::PositiveBiped => 0.0,
     };
-    let air: f64 = (0..2).filter(|&f| x.touchdown[f]).map(|f| air_term(x.air_time[f])).sum();
+    let air: f64 = match c.air_time_form {
+        // Every step of single stance pays the shorter of the two feet's time in their mode, capped at the target.
+        AirTimeForm::PositiveBiped => {
+            let single = x.foot_contact[0] != x.foot_contact[1];
+            if single && moving {
+                x.mode_time[0].min(x.mode_time[1]).min(c.air_time_target)
+            } else {
+                0.0
+            }
+        }
+        _ => (0..2).filter(|&f| x.touchdown[f]).map(|f| air_term(x.air_time[f])).sum(),
+    };
     [
         kernel(sq(x.command[0] - x.lin_vel[0]) + sq(x.command[1] - x.lin_vel[1]), c.sigma_v),
         kernel(sq(x.command[2] - x.ang_vel[2]), c.sigma_w),
@@ -214,6 +228,16 @@ mod tests {
         let mut standing = x.clone();
         standing.command = [0.0; 3];
         e(raw_terms(&form(AirTimeForm::Signed), &standing)[13], 0.0);
+        // IsaacLab's biped form: single stance pays min(mode times) up to the target, every step; double support
+        // or flight pays nothing.
+        let mut biped = x.clone();
+        biped.foot_contact = [true, false];
+        biped.mode_time = [0.3, 0.12];
+        e(raw_terms(&form(AirTimeForm::PositiveBiped), &biped)[13], 0.12);
+        biped.mode_time = [0.9, 0.7];
+        e(raw_terms(&form(AirTimeForm::PositiveBiped), &biped)[13], 0.5);
+        biped.foot_contact = [true, true];
+        e(raw_terms(&form(AirTimeForm::PositiveBiped), &biped)[13], 0.0);
         x.air_time[1] = 0.2;
         let mut out = [0.0; N_TERMS];
         let total = weighted_terms(&c, &x, 0.02, &mut out);
