@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs what a fresh Debian bookworm machine lacks for TopA: MuJoCo 2.2.2 (libmujoco-dev) and its samples
-# (mujoco-testspeed, used by `topa bench physics`) and protoc. Sourced by run.sh and test.sh; safe to run again.
+# (mujoco-testspeed, used by `topa bench physics`), protoc, and headless OpenGL for MuJoCo's renderer (EGL with
+# Mesa's software rasteriser: `--video`). Sourced by run.sh and test.sh; safe to run again. MP4 output also needs
+# ffmpeg (`apt-get install ffmpeg`); GIF needs nothing more.
 set -euo pipefail
 
 need_pkgs=()
@@ -8,6 +10,11 @@ need_pkgs=()
 command -v mujoco-testspeed >/dev/null 2>&1 || need_pkgs+=(libmujoco-samples)
 # protoc: the TensorBoard event writer (crate tboard) compiles its protobuf schema at build time.
 command -v protoc >/dev/null 2>&1 || need_pkgs+=(protobuf-compiler)
+# Headless rendering: libEGL (glvnd), Mesa's EGL vendor library and its software (llvmpipe) driver.
+ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1 ' || need_pkgs+=(libegl1)
+ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0 ' || need_pkgs+=(libegl-mesa0)
+[ -e /usr/lib/x86_64-linux-gnu/dri/swrast_dri.so ] || [ -e /usr/lib/aarch64-linux-gnu/dri/swrast_dri.so ] ||
+  need_pkgs+=(libgl1-mesa-dri)
 if [ ${#need_pkgs[@]} -gt 0 ]; then
   echo "setup: installing ${need_pkgs[*]} (apt-get)" >&2
   SUDO=""

@@ -47,6 +47,39 @@ impl Common {
     }
 }
 
+/// `--video` and its frame size and rate.
+#[derive(Args, Clone, Debug)]
+pub struct VideoArgs {
+    /// Render a video with MuJoCo (headless, EGL): .gif, or .mp4 (needs ffmpeg).
+    #[arg(long)]
+    pub video: Option<PathBuf>,
+    /// Frame size WIDTHxHEIGHT.
+    #[arg(long, default_value = "640x480")]
+    pub video_size: String,
+    /// Frames per second.
+    #[arg(long, default_value_t = 30)]
+    pub fps: u32,
+    /// fast (no multisampling, shadows or reflections: ~15 ms a 640×480 frame in software) or high (~150 ms).
+    #[arg(long, default_value = "fast")]
+    pub quality: crate::video::QualityArg,
+}
+
+impl VideoArgs {
+    pub fn options(&self) -> Result<crate::play::PlayOptions> {
+        let bad = || anyhow::anyhow!("--video-size takes WIDTHxHEIGHT, e.g. 640x480, got '{}'", self.video_size);
+        let (w, h) = self.video_size.split_once('x').ok_or_else(bad)?;
+        let size = (w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?);
+        anyhow::ensure!(self.fps > 0, "--fps must be at least 1");
+        Ok(crate::play::PlayOptions {
+            video: self.video.clone(),
+            video_size: size,
+            fps: self.fps,
+            quality: Some(self.quality.into()),
+            ..Default::default()
+        })
+    }
+}
+
 #[derive(Subcommand)]
 pub enum EvalCmd {
     /// The paper's six velocity commands: MAE, mean torque, mean roll/pitch, fall.
@@ -70,6 +103,12 @@ pub enum EvalCmd {
         /// Observation window, s.
         #[arg(long, default_value_t = 10.0)]
         window: f64,
+        /// Also render one cell of the grid (the force given by --video-force) as a video.
+        #[command(flatten)]
+        video: VideoArgs,
+        /// The cell to render, F_x,F_y (N).
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "20,0")]
+        video_force: Vec<f64>,
     },
     /// Walk forward at 0.5 m/s under Gaussian command noise at the paper's four levels: success rates.
     Noise {
@@ -108,7 +147,24 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             println!("{}", report::tracking_markdown(&[("ours", &rows)], Some(&paper)));
             println!("{}", report::gait_markdown(&[("ours", &rows)]));
         }
-        EvalCmd::Push { policy, range, step, window } => {
+        EvalCmd::Push { policy, range, step, window, video, video_force } => {
+            if video.video.is_some() {
+                anyhow::ensure!(video_force.len() == 2, "--video-force takes F_x,F_y");
+                let o = crate::play::PlayOptions {
+                    command: [0.0; 3],
+                    seconds: window,
+                    torso_force: Some([video_force[0], video_force[1]]),
+                    ..video.options()?
+                };
+                let p = crate::play::run(&policy, &o, &s)?;
+                let fall = p.fell_at_s.map_or("no fall".into(), |t| format!("fell at {t:.2} s"));
+                eprintln!(
+                    "video of the ({}, {}) N cell: {} ({fall})",
+                    video_force[0],
+                    video_force[1],
+                    p.video.unwrap().display()
+                );
+            }
             let mut r = PolicyRunner::load(&policy, "policy")?;
             let grid = push::run(&mut r, &s, range, step, window, [0.0; 3])?;
             report::write_json(&c.out, "push.json", &grid)?;

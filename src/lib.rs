@@ -5,11 +5,13 @@
 pub mod bench;
 pub mod eval;
 pub mod eval_cmd;
+pub mod export;
 pub mod info;
 pub mod play;
 pub mod plots;
 pub mod recording;
 pub mod train_cmd;
+pub mod video;
 
 /// Threads to use: `n`, or every core for 0.
 pub fn resolve_threads(n: usize) -> usize {

@@ -68,7 +68,27 @@ enum Cmd {
         #[arg(long)]
         record: Option<PathBuf>,
         #[command(flatten)]
+        video: eval_cmd::VideoArgs,
+        /// Constant torso force (F_x,F_y in N, torso frame) from the command's start, as in the push grid.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        push: Option<Vec<f64>>,
+        #[command(flatten)]
         common: eval_cmd::Common,
+    },
+    /// Export a policy for the robot's computer: ONNX with the observation normaliser in the graph.
+    Export {
+        /// The policy (.json sidecar).
+        #[arg(long)]
+        policy: PathBuf,
+        /// Output ONNX file.
+        #[arg(long)]
+        onnx: PathBuf,
+        /// Also output `motor_targets` (nominal pose + action scale · clipped action, clamped to the motor range).
+        #[arg(long)]
+        motor_targets: bool,
+        /// Only check that an existing ONNX file was exported from this policy (no writing).
+        #[arg(long)]
+        check: bool,
     },
     /// Train a policy with PPO (symmetry loss, last-layer decay; --adversary for the cyclic adversary).
     Train {
@@ -170,6 +190,18 @@ enum BenchCmd {
         #[arg(long, default_value = "assets/policies/C.json")]
         policy: PathBuf,
     },
+    /// Milliseconds per frame of MuJoCo's headless renderer (and of GIF encoding).
+    Render {
+        #[arg(long, default_value_t = 640)]
+        width: usize,
+        #[arg(long, default_value_t = 480)]
+        height: usize,
+        #[arg(long, default_value_t = 200)]
+        frames: usize,
+        /// fast (the videos' default) or high (multisampling, shadows, reflections).
+        #[arg(long, default_value = "fast")]
+        quality: topa::video::QualityArg,
+    },
     /// Real training iterations of a preset: samples/s, the collect / inference / update split, and their ratio
     /// to the bare physics bound measured in the same run.
     Train {
@@ -222,10 +254,37 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             eval_cmd::run_ablate(o, c, ca, full, common)
         }
-        Cmd::Play { policy, command, seconds, record, common } => {
+        Cmd::Export { policy, onnx, motor_targets, check } => {
+            if check {
+                topa::export::check(&onnx, &policy)?;
+                println!("{} was exported from {}", onnx.display(), policy.display());
+            } else {
+                topa::export::export(&policy, &onnx, motor_targets)?;
+                println!(
+                    "wrote {} (opset {}, input obs[batch, 42] → action[batch, 10]{})",
+                    onnx.display(),
+                    topa::export::OPSET,
+                    if motor_targets { ", motor_targets[batch, 10]" } else { "" }
+                );
+            }
+            Ok(())
+        }
+        Cmd::Play { policy, command, seconds, record, video, push, common } => {
             trainer::nn::init_threads(1)?;
             anyhow::ensure!(command.len() == 3, "--command takes three numbers v_x,v_y,w_z, got {}", command.len());
-            let s = play::run(&policy, [command[0], command[1], command[2]], seconds, record, &common.settings()?)?;
+            let torso_force = match push.as_deref() {
+                None => None,
+                Some([fx, fy]) => Some([*fx, *fy]),
+                Some(v) => anyhow::bail!("--push takes two numbers F_x,F_y (N), got {}", v.len()),
+            };
+            let o = play::PlayOptions {
+                command: [command[0], command[1], command[2]],
+                seconds,
+                record,
+                torso_force,
+                ..video.options()?
+            };
+            let s = play::run(&policy, &o, &common.settings()?)?;
             if common.json {
                 println!("{}", serde_json::to_string_pretty(&s)?);
             } else {
@@ -236,6 +295,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 );
                 if let Some(r) = &s.recording {
                     println!("recording: {} (open it in Foxglove)", r.display());
+                }
+                if let Some(v) = &s.video {
+                    println!("video: {} ({} frames)", v.display(), s.video_frames);
                 }
             }
             Ok(())
@@ -251,6 +313,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             } else {
                 bench::ppo::run(&threads, repeats, torch_python.as_deref())
             }
+        }
+        Cmd::Bench(BenchCmd::Render { width, height, frames, quality }) => {
+            bench::render::run(width, height, frames, quality.into())
         }
         Cmd::Bench(BenchCmd::Memory { envs, steps, policy }) => bench::memory::run(envs, steps, &policy),
         Cmd::Bench(BenchCmd::Train { config, threads, envs, iterations, warmup, integrator, rounds, worker }) => {

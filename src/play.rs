@@ -11,6 +11,23 @@ use topa_env::{assets, ModelKind, Task, TopaEnv};
 
 use crate::eval::{EvalSettings, PolicyRunner};
 use crate::recording::Recorder;
+use crate::video::{self, VideoRecorder};
+
+/// What to play and what to write.
+#[derive(Debug, Clone, Default)]
+pub struct PlayOptions {
+    pub command: [f64; 3],
+    pub seconds: f64,
+    /// MCAP recording.
+    pub record: Option<PathBuf>,
+    /// Video (.gif or .mp4), its frame size and rate.
+    pub video: Option<PathBuf>,
+    pub video_size: (usize, usize),
+    pub fps: u32,
+    pub quality: Option<mujoco_sys::render::Quality>,
+    /// Constant force on the torso in its own frame from the command's start, N (the push experiment's cells).
+    pub torso_force: Option<[f64; 2]>,
+}
 
 #[derive(Debug, Clone, Serialize)]
 pub struct PlaySummary {
@@ -23,6 +40,8 @@ pub struct PlaySummary {
     /// Mean measured (v_x, v_y, w_z) in the torso frame.
     pub mean_velocity: [f64; 3],
     pub recording: Option<PathBuf>,
+    pub video: Option<PathBuf>,
+    pub video_frames: usize,
 }
 
 fn named(names: &[String], v: &[f64]) -> serde_json::Value {
@@ -54,13 +73,8 @@ fn record_step(rec: &mut Recorder, env: &TopaEnv, t: f64) -> Result<()> {
     Ok(())
 }
 
-pub fn run(
-    policy: &std::path::Path,
-    command: [f64; 3],
-    seconds: f64,
-    record: Option<PathBuf>,
-    settings: &EvalSettings,
-) -> Result<PlaySummary> {
+pub fn run(policy: &std::path::Path, o: &PlayOptions, settings: &EvalSettings) -> Result<PlaySummary> {
+    let (command, seconds) = (o.command, o.seconds);
     let mut runner = PolicyRunner::load(policy, "policy")?;
     let cfg = runner.eval_config(settings)?;
     let mut env =
@@ -68,8 +82,18 @@ pub fn run(
     let mut obs = vec![0.0f32; env.obs_dim()];
     env.reset(&mut obs)?;
     env.set_command_override(Some([0.0; 3]));
-    let mut rec = match &record {
+    let mut rec = match &o.record {
         Some(p) => Some(Recorder::create(p, env.data().model())?),
+        None => None,
+    };
+    let mut vid = match &o.video {
+        Some(p) => Some(VideoRecorder::create(
+            p,
+            &env,
+            o.video_size,
+            o.fps,
+            o.quality.unwrap_or(mujoco_sys::render::Quality::Fast),
+        )?),
         None => None,
     };
     if let Some(r) = rec.as_mut() {
@@ -86,12 +110,21 @@ pub fn run(
     for k in 0..steps {
         if k == settle {
             env.set_command_override(Some(command));
+            if let Some(f) = o.torso_force {
+                let mut p = *env.perturbation();
+                p.torso_force_local = [f[0], f[1], 0.0];
+                env.set_perturbation_struct(p);
+            }
         }
         runner.act(&obs, &mut actions);
         let out = env.step(&actions, &mut obs);
         let t = (k + 1) as f64 * dt;
         if let Some(r) = rec.as_mut() {
             record_step(r, &env, t)?;
+        }
+        if let Some(v) = vid.as_mut() {
+            let text = video::overlay(&env, t);
+            v.advance(t, &mut env, &text)?;
         }
         if out.done {
             fell_at = Some(t);
@@ -110,6 +143,11 @@ pub fn run(
         Some(r) => Some(r.finish()?),
         None => None,
     };
+    let video_frames = vid.as_ref().map_or(0, |v| v.frames());
+    let video = match vid {
+        Some(v) => Some(v.finish()?),
+        None => None,
+    };
     Ok(PlaySummary {
         command,
         seconds,
@@ -118,5 +156,7 @@ pub fn run(
         distance_m: (end[0] - start[0]).hypot(end[1] - start[1]),
         mean_velocity: sum.map(|x| x / n.max(1) as f64),
         recording,
+        video,
+        video_frames,
     })
 }

@@ -91,3 +91,14 @@ int mjs_load_xml(const char* filename, const mjVFS* vfs, mjModel** out, char* er
 int mjs_kinematics(const mjModel* m, mjData* d, char* err, int errlen) {
   GUARDED(mj_kinematics(m, d); mj_comPos(m, d); mj_comVel(m, d))
 }
+
+// Rendering calls that raise mju_error when no usable OpenGL context is current.
+int mjs_make_scene(const mjModel* m, mjvScene* scn, int maxgeom, char* err, int errlen) {
+  GUARDED(mjv_makeScene(m, scn, maxgeom))
+}
+int mjs_make_context(const mjModel* m, mjrContext* con, int fontscale, char* err, int errlen) {
+  GUARDED(mjr_makeContext(m, con, fontscale))
+}
+int mjs_render(mjrRect viewport, mjvScene* scn, const mjrContext* con, char* err, int errlen) {
+  GUARDED(mjr_render(viewport, scn, con))
+}

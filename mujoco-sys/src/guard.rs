@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::OnceLock;
 
 use crate::error::{MujocoError, Result};
-use crate::ffi::{mjData, mjModel, mjVFS};
+use crate::ffi::{mjData, mjModel, mjVFS, mjrContext, mjrRect, mjvScene};
 
 pub(crate) const ERR_LEN: usize = 1024;
 
@@ -16,6 +16,27 @@ extern "C" {
     pub(crate) fn mjs_step1(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
     pub(crate) fn mjs_step2(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
     pub(crate) fn mjs_forward(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
+    pub(crate) fn mjs_make_scene(
+        m: *const mjModel,
+        scn: *mut mjvScene,
+        maxgeom: c_int,
+        err: *mut c_char,
+        len: c_int,
+    ) -> c_int;
+    pub(crate) fn mjs_make_context(
+        m: *const mjModel,
+        con: *mut mjrContext,
+        fontscale: c_int,
+        err: *mut c_char,
+        len: c_int,
+    ) -> c_int;
+    pub(crate) fn mjs_render(
+        viewport: mjrRect,
+        scn: *mut mjvScene,
+        con: *const mjrContext,
+        err: *mut c_char,
+        len: c_int,
+    ) -> c_int;
     pub(crate) fn mjs_kinematics(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
     pub(crate) fn mjs_reset_data(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
     pub(crate) fn mjs_reset_data_keyframe(

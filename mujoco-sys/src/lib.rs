@@ -10,6 +10,7 @@ mod guard;
 mod model;
 mod model_arrays;
 mod names;
+pub mod render;
 
 pub use data::{Data, Warning};
 pub use error::{MujocoError, Result};

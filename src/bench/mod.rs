@@ -4,4 +4,5 @@ pub mod env;
 pub mod memory;
 pub mod physics;
 pub mod ppo;
+pub mod render;
 pub mod train;

@@ -176,7 +176,18 @@ impl Policy {
         self.actor.forward_inference(&self.norm_buf, rows, actions, &mut self.scratch);
     }
 
-    /// The normaliser's mean and scale (1 / (std + ε)), for inspection.
+    /// The actor network.
+    pub fn actor(&self) -> &Mlp {
+        &self.actor
+    }
+
+    /// The normaliser as an affine map: normalised = (obs − mean) ⊙ scale, scale = 1 / (std + ε).
+    pub fn normalizer_affine(&self) -> (Vec<f64>, Vec<f64>) {
+        let scale = self.normalizer_std().iter().map(|s| 1.0 / s).collect();
+        (self.normalizer.mean.clone(), scale)
+    }
+
+    /// The normaliser's standard deviation plus ε, for inspection.
     pub fn normalizer_std(&self) -> Vec<f64> {
         self.normalizer.std().iter().map(|s| s + STD_EPS).collect()
     }

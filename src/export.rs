@@ -1,0 +1,265 @@
+//! `topa export --onnx OUT.onnx --policy P.json`: the actor as an ONNX model for the robot's computer, with the
+//! observation normaliser in the graph, written through the ONNX protobuf types of `tract-onnx` (prost).
+//!
+//! The model (opset 17, IR 8):
+//! * input `obs`: float32 `[batch, 42]`, TopA's observation in motor space, laid out as in the
+//!   `observation_layout` metadata entry (the env's `[v, ω, g, q − q_nominal, q̇, a_prev, c]`);
+//! * output `action`: float32 `[batch, 10]`, the policy's mean action in motor space (motor target offsets in units
+//!   of `action_scale` rad);
+//! * with `--motor-targets`, output `motor_targets`: float32 `[batch, 10]`, what the motors receive:
+//!   `clamp(nominal + action_scale · clip(action, ±action_clip), motor range)`, in rad.
+//!
+//! Policies trained on the open (serial) model act in joint space; their graph maps the observation's motor
+//! blocks to joint space and the action back through the paper's M (as `topa eval` does), so every exported
+//! model takes and returns motor space. The metadata names the robot, the layout, the control period and the
+//! policy file's checksum, so a model can be matched to its policy (`--check`).
+
+use std::path::Path;
+
+use anyhow::{bail, ensure, Context, Result};
+use prost::Message;
+use topa_env::env::{OBS_ANG_VEL, OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_LIN_VEL, OBS_Q, OBS_QD};
+use topa_env::robot::{self, ModelKind, N_MOTORS};
+use tract_onnx::pb;
+use trainer::policy_file::Policy;
+
+pub const OPSET: i64 = 17;
+pub const INPUT: &str = "obs";
+pub const OUTPUT: &str = "action";
+pub const TARGETS: &str = "motor_targets";
+const FLOAT: i32 = 1;
+const DOUBLE: i32 = 11;
+
+/// The observation blocks (name, offset, size), as the metadata lists them.
+pub fn observation_layout() -> Vec<(&'static str, usize, usize)> {
+    vec![
+        ("base_linear_velocity", OBS_LIN_VEL, 3),
+        ("base_angular_velocity", OBS_ANG_VEL, 3),
+        ("projected_gravity", OBS_GRAVITY, 3),
+        ("motor_position_minus_nominal", OBS_Q, N_MOTORS),
+        ("motor_velocity", OBS_QD, N_MOTORS),
+        ("previous_action", OBS_LAST_ACTION, N_MOTORS),
+        ("command_vx_vy_wz", OBS_COMMAND, 3),
+    ]
+}
+
+fn tensor(name: &str, dims: &[usize], data: Vec<f32>) -> pb::TensorProto {
+    pb::TensorProto {
+        name: name.into(),
+        dims: dims.iter().map(|&d| d as i64).collect(),
+        data_type: FLOAT,
+        float_data: data,
+        ..Default::default()
+    }
+}
+
+fn tensor_f64(name: &str, data: Vec<f64>) -> pb::TensorProto {
+    pb::TensorProto {
+        name: name.into(),
+        dims: vec![data.len() as i64],
+        data_type: DOUBLE,
+        double_data: data,
+        ..Default::default()
+    }
+}
+
+fn value_info(name: &str, cols: usize) -> pb::ValueInfoProto {
+    use pb::tensor_shape_proto::{dimension::Value as Dim, Dimension};
+    let dim = |v: Dim| Dimension { value: Some(v), ..Default::default() };
+    pb::ValueInfoProto {
+        name: name.into(),
+        r#type: Some(pb::TypeProto {
+            value: Some(pb::type_proto::Value::TensorType(pb::type_proto::Tensor {
+                elem_type: FLOAT,
+                shape: Some(pb::TensorShapeProto {
+                    dim: vec![dim(Dim::DimParam("batch".into())), dim(Dim::DimValue(cols as i64))],
+                }),
+            })),
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
+
+fn node(op: &str, inputs: &[&str], output: &str, attributes: Vec<pb::AttributeProto>) -> pb::NodeProto {
+    pb::NodeProto {
+        op_type: op.into(),
+        name: output.into(),
+        input: inputs.iter().map(|s| s.to_string()).collect(),
+        output: vec![output.into()],
+        attribute: attributes,
+        ..Default::default()
+    }
+}
+
+fn float_attr(name: &str, v: f32) -> pb::AttributeProto {
+    pb::AttributeProto { name: name.into(), r#type: 1, f: v, ..Default::default() }
+}
+
+fn int_attr(name: &str, v: i64) -> pb::AttributeProto {
+    pb::AttributeProto { name: name.into(), r#type: 2, i: v, ..Default::default() }
+}
+
+/// The matrix `T` with `row · T` = the linear map `f` applied to a row (`f` given on basis vectors).
+fn row_map(n: usize, f: impl Fn(&[f64]) -> Vec<f64>) -> Vec<f32> {
+    let mut t = vec![0.0f32; n * n];
+    for i in 0..n {
+        let mut e = vec![0.0; n];
+        e[i] = 1.0;
+        for (j, v) in f(&e).iter().enumerate() {
+            t[i * n + j] = *v as f32;
+        }
+    }
+    t
+}
+
+/// Builds the ONNX model of `policy` (loaded from `source`).
+pub fn build(policy: &Policy, source: &str, motor_targets: bool) -> Result<pb::ModelProto> {
+    let m = &policy.meta;
+    ensure!(
+        m.obs_dim == OBS_DIM && m.action_dim == N_MOTORS,
+        "{source}: a {}→{} policy is not a TopA policy (42 → 10)",
+        m.obs_dim,
+        m.action_dim
+    );
+    let kind = m.model.with_context(|| format!("{source}: the policy does not say which model it was trained on"))?;
+    let (mut nodes, mut inits) = (Vec::new(), Vec::new());
+    let mut x = INPUT.to_string();
+    if kind == ModelKind::Open {
+        // Motor-space observation → the joint space the policy was trained in: M on q, q̇ and a_prev.
+        let t = row_map(OBS_DIM, |e| {
+            let mut o = e.to_vec();
+            for b in [OBS_Q, OBS_QD, OBS_LAST_ACTION] {
+                let v: [f64; N_MOTORS] = o[b..b + N_MOTORS].try_into().unwrap();
+                o[b..b + N_MOTORS].copy_from_slice(&robot::motor_to_joint(&v));
+            }
+            o
+        });
+        inits.push(tensor("motor_to_joint_obs", &[OBS_DIM, OBS_DIM], t));
+        nodes.push(node("MatMul", &[INPUT, "motor_to_joint_obs"], "obs_joint", vec![]));
+        x = "obs_joint".into();
+    }
+    // The normaliser in double precision, as the trainer computes it, rounded to float once at the end.
+    let (mean, scale) = policy.normalizer_affine();
+    inits.push(tensor_f64("obs_mean", mean));
+    inits.push(tensor_f64("obs_scale", scale));
+    nodes.push(node("Cast", &[&x], "obs_f64", vec![int_attr("to", DOUBLE as i64)]));
+    nodes.push(node("Sub", &["obs_f64", "obs_mean"], "obs_centred", vec![]));
+    nodes.push(node("Mul", &["obs_centred", "obs_scale"], "obs_scaled", vec![]));
+    nodes.push(node("Cast", &["obs_scaled"], "obs_normalised", vec![int_attr("to", FLOAT as i64)]));
+    x = "obs_normalised".into();
+    let layers = &policy.actor().layers;
+    for (i, l) in layers.iter().enumerate() {
+        let (w, b) = (format!("actor.{i}.weight"), format!("actor.{i}.bias"));
+        inits.push(tensor(&w, &[l.out_dim(), l.in_dim()], l.weight.as_tensor().flatten_all()?.to_vec1()?));
+        inits.push(tensor(&b, &[l.out_dim()], l.bias.as_tensor().to_vec1()?));
+        let last = i + 1 == layers.len();
+        let z = if last && kind == ModelKind::Closed { OUTPUT.to_string() } else { format!("actor.{i}.linear") };
+        nodes.push(node("Gemm", &[&x, &w, &b], &z, vec![int_attr("transB", 1)]));
+        x = if last {
+            z
+        } else {
+            let y = format!("actor.{i}.elu");
+            nodes.push(node("Elu", &[&z], &y, vec![float_attr("alpha", 1.0)]));
+            y
+        };
+    }
+    if kind == ModelKind::Open {
+        // Joint-space action → motor space: M⁻¹.
+        let t = row_map(N_MOTORS, |e| {
+            let v: [f64; N_MOTORS] = e.try_into().unwrap();
+            robot::joint_to_motor(&v).to_vec()
+        });
+        inits.push(tensor("joint_to_motor_action", &[N_MOTORS, N_MOTORS], t));
+        nodes.push(node("MatMul", &[&x, "joint_to_motor_action"], OUTPUT, vec![]));
+    }
+    let mut outputs = vec![value_info(OUTPUT, N_MOTORS)];
+    if motor_targets {
+        let clip = m.action_clip as f32;
+        let nominal = robot::nominal_motors();
+        let range = robot::actuated_range(ModelKind::Closed);
+        inits.push(tensor("action_min", &[], vec![-clip]));
+        inits.push(tensor("action_max", &[], vec![clip]));
+        inits.push(tensor("action_scale", &[], vec![m.action_scale as f32]));
+        inits.push(tensor("nominal_motor_positions", &[N_MOTORS], nominal.iter().map(|&v| v as f32).collect()));
+        inits.push(tensor("motor_min", &[N_MOTORS], range.iter().map(|r| r[0] as f32).collect()));
+        inits.push(tensor("motor_max", &[N_MOTORS], range.iter().map(|r| r[1] as f32).collect()));
+        nodes.push(node("Clip", &[OUTPUT, "action_min", "action_max"], "action_clipped", vec![]));
+        nodes.push(node("Mul", &["action_clipped", "action_scale"], "target_offset", vec![]));
+        nodes.push(node("Add", &["target_offset", "nominal_motor_positions"], "target_raw", vec![]));
+        nodes.push(node("Max", &["target_raw", "motor_min"], "target_low", vec![]));
+        nodes.push(node("Min", &["target_low", "motor_max"], TARGETS, vec![]));
+        outputs.push(value_info(TARGETS, N_MOTORS));
+    }
+    let layout: Vec<serde_json::Value> =
+        observation_layout().iter().map(|(n, o, s)| serde_json::json!({"name": n, "offset": o, "size": s})).collect();
+    let meta = [
+        ("robot", "TopA (closed knee-ankle chain, 2 x 5-DoF legs)".to_string()),
+        ("trained_on_model", kind.name().to_string()),
+        ("observation_layout", serde_json::Value::Array(layout).to_string()),
+        ("motor_order", serde_json::to_string(&robot::actuator_names(ModelKind::Closed))?),
+        ("nominal_motor_positions_rad", serde_json::to_string(&robot::nominal_motors())?),
+        ("action_scale_rad", m.action_scale.to_string()),
+        ("action_clip", m.action_clip.to_string()),
+        ("control_period_s", m.policy_dt.to_string()),
+        ("policy_file", source.to_string()),
+        ("policy_weights_crc32", m.weights_crc32.to_string()),
+        ("opset", OPSET.to_string()),
+    ];
+    Ok(pb::ModelProto {
+        ir_version: 8,
+        opset_import: vec![pb::OperatorSetIdProto { domain: String::new(), version: OPSET }],
+        producer_name: "topa".into(),
+        producer_version: env!("CARGO_PKG_VERSION").into(),
+        doc_string: "TopA locomotion policy: obs[batch, 42] → action[batch, 10] (see metadata)".into(),
+        graph: Some(pb::GraphProto {
+            name: "topa_policy".into(),
+            node: nodes,
+            initializer: inits,
+            input: vec![value_info(INPUT, OBS_DIM)],
+            output: outputs,
+            ..Default::default()
+        }),
+        metadata_props: meta.into_iter().map(|(k, v)| pb::StringStringEntryProto { key: k.into(), value: v }).collect(),
+        ..Default::default()
+    })
+}
+
+/// Writes the ONNX model of the policy at `policy_path` to `out` (atomically).
+pub fn export(policy_path: &Path, out: &Path, motor_targets: bool) -> Result<()> {
+    let policy = Policy::load(policy_path)?;
+    let model = build(&policy, &policy_path.display().to_string(), motor_targets)?;
+    trainer::tensorfile::write_atomic(out, &model.encode_to_vec())
+}
+
+/// Reads an ONNX file written by `export`, refusing anything else with one clear error.
+pub fn read(path: &Path) -> Result<pb::ModelProto> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let model = pb::ModelProto::decode(bytes.as_slice()).map_err(|e| {
+        anyhow::anyhow!("{} is not an ONNX model ({e}): export it again with `topa export`", path.display())
+    })?;
+    let graph = model.graph.as_ref().with_context(|| format!("{} holds no graph", path.display()))?;
+    if graph.input.first().map(|i| i.name.as_str()) != Some(INPUT)
+        || graph.output.first().map(|o| o.name.as_str()) != Some(OUTPUT)
+    {
+        bail!("{} is not a TopA policy model (no '{INPUT}' input / '{OUTPUT}' output)", path.display());
+    }
+    Ok(model)
+}
+
+/// Checks that the ONNX file belongs to the policy file: same weights checksum and architecture.
+pub fn check(onnx: &Path, policy_path: &Path) -> Result<()> {
+    let model = read(onnx)?;
+    let policy = Policy::load(policy_path)?;
+    let crc = model.metadata_props.iter().find(|p| p.key == "policy_weights_crc32").map(|p| p.value.clone());
+    if crc.as_deref() != Some(policy.meta.weights_crc32.to_string().as_str()) {
+        bail!(
+            "{} was not exported from {} (weights checksum {} vs {}): export it again",
+            onnx.display(),
+            policy_path.display(),
+            crc.unwrap_or_else(|| "missing".into()),
+            policy.meta.weights_crc32
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,88 @@
+//! Video of a run, rendered by MuJoCo itself without a display: an EGL context, MuJoCo's offscreen renderer with a
+//! camera that follows the torso, the command and the measured velocity written on every frame, and a GIF or MP4.
+
+mod encode;
+mod gl;
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Result;
+use mujoco_sys::render::{Quality, Renderer};
+use topa_env::TopaEnv;
+
+pub use encode::VideoWriter;
+pub use gl::{GlContext, INSTALL_HINT};
+
+/// `--quality` on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum QualityArg {
+    Fast,
+    High,
+}
+
+impl From<QualityArg> for Quality {
+    fn from(q: QualityArg) -> Quality {
+        match q {
+            QualityArg::Fast => Quality::Fast,
+            QualityArg::High => Quality::High,
+        }
+    }
+}
+
+/// Frames of a run at a fixed rate.
+pub struct VideoRecorder {
+    // Field order is drop order: the renderer frees OpenGL objects while the context still exists.
+    renderer: Renderer,
+    _gl: GlContext,
+    writer: VideoWriter,
+    fps: u32,
+}
+
+impl VideoRecorder {
+    pub fn create(
+        path: &Path,
+        env: &TopaEnv,
+        (width, height): (usize, usize),
+        fps: u32,
+        quality: Quality,
+    ) -> Result<VideoRecorder> {
+        let gl = GlContext::headless(width, height)?;
+        let mut renderer = Renderer::new(env.data().model_arc().clone(), width, height, quality)?;
+        renderer.track(env.indices().torso_body, 1.6, 150.0, -12.0);
+        let writer = VideoWriter::create(path, width, height, fps)?;
+        Ok(VideoRecorder { renderer, _gl: gl, writer, fps })
+    }
+
+    /// Adds the frames due up to time `t` (s since the start): frame k shows the state at the first step at or
+    /// after k / fps, so a run of T seconds has T × fps frames.
+    pub fn advance(&mut self, t: f64, env: &mut TopaEnv, text: &(String, String)) -> Result<()> {
+        let due = (t * self.fps as f64 + 1e-9).floor() as usize;
+        while self.writer.frames() < due {
+            let frame = self.renderer.render(env.data_mut(), Some((&text.0, &text.1)))?;
+            let frame = frame.to_vec();
+            self.writer.write(&frame)?;
+        }
+        Ok(())
+    }
+
+    pub fn frames(&self) -> usize {
+        self.writer.frames()
+    }
+
+    pub fn finish(self) -> Result<PathBuf> {
+        self.writer.finish()
+    }
+}
+
+/// The overlay: commanded and measured (v_x, v_y, w_z), and the time.
+pub fn overlay(env: &TopaEnv, t: f64) -> (String, String) {
+    let c = env.command();
+    let s = env.robot_state();
+    (
+        "time\ncommand (vx vy wz)\nmeasured".into(),
+        format!(
+            "{t:.2} s\n{:+.2} {:+.2} {:+.2}\n{:+.2} {:+.2} {:+.2}",
+            c[0], c[1], c[2], s.lin_vel[0], s.lin_vel[1], s.ang_vel[2]
+        ),
+    )
+}

@@ -1,0 +1,130 @@
+//! ONNX export, checked by an independent runtime (tract): for every bundled policy, the exported model's
+//! actions (and motor targets) equal our own forward pass on 1 000 observations, recorded and random; corrupt or
+//! mismatched files give one clear error.
+
+use std::path::{Path, PathBuf};
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use topa::eval::{EvalSettings, PolicyRunner};
+use topa_env::robot::{self, ModelKind, N_MOTORS};
+use topa_env::{assets, Task, TopaEnv};
+use tract_onnx::prelude::*;
+
+fn policy(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/policies").join(format!("{name}.json"))
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("topa-export-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// 500 observations of the C policy walking under changing commands, then 500 random ones.
+fn observations() -> Vec<f32> {
+    let mut runner = PolicyRunner::load(&policy("C"), "C").unwrap();
+    let cfg = runner.eval_config(&EvalSettings::default()).unwrap();
+    let mut env = TopaEnv::new(assets::load_model(ModelKind::Closed).unwrap(), std::sync::Arc::new(cfg), 1, 0).unwrap();
+    let mut obs = vec![0.0f32; 42];
+    env.reset(&mut obs).unwrap();
+    let mut out = Vec::new();
+    let mut act = Vec::new();
+    for k in 0..500 {
+        env.set_command_override(Some([
+            0.5 * ((k / 100) as f64 - 2.0) / 2.0,
+            0.0,
+            if k % 200 < 100 { 0.5 } else { -0.5 },
+        ]));
+        runner.act(&obs, &mut act);
+        env.step(&act, &mut obs);
+        out.extend_from_slice(&obs);
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    out.extend((0..500 * 42).map(|_| rng.random_range(-2.0f32..2.0)));
+    out
+}
+
+fn run_onnx(path: &Path, obs: &[f32]) -> Vec<Vec<f32>> {
+    let rows = obs.len() / 42;
+    let model = tract_onnx::onnx()
+        .model_for_path(path)
+        .unwrap()
+        .with_input_fact(0, f32::fact([rows, 42]).into())
+        .unwrap()
+        .into_optimized()
+        .unwrap()
+        .into_runnable()
+        .unwrap();
+    let input: Tensor = tract_ndarray::Array2::from_shape_vec((rows, 42), obs.to_vec()).unwrap().into();
+    let out = model.run(tvec!(input.into())).unwrap();
+    out.iter().map(|t| t.to_plain_array_view::<f32>().unwrap().iter().copied().collect()).collect()
+}
+
+#[test]
+fn onnx_matches_our_forward_pass_for_every_bundled_policy() {
+    let dir = tempdir("match");
+    let obs = observations();
+    let rows = obs.len() / 42;
+    for name in ["O", "C", "CA"] {
+        let file = dir.join(format!("{name}.onnx"));
+        topa::export::export(&policy(name), &file, true).unwrap();
+        topa::export::check(&file, &policy(name)).unwrap();
+        let out = run_onnx(&file, &obs);
+        // Ours: the evaluation's runner (motor space in and out, O mapped through M).
+        let mut runner = PolicyRunner::load(&policy(name), name).unwrap();
+        let mut ours = Vec::new();
+        runner.act(&obs, &mut ours);
+        let worst = out[0].iter().zip(&ours).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        assert!(worst <= 1e-5, "{name}: actions differ by {worst}");
+        // Motor targets: nominal + scale · clip(action), clamped to the motor range — what the env sends.
+        let meta = &runner.policy.meta;
+        let (nominal, range) = (robot::nominal_motors(), robot::actuated_range(ModelKind::Closed));
+        let mut worst_t = 0.0f32;
+        for r in 0..rows {
+            for i in 0..N_MOTORS {
+                let a = (ours[r * N_MOTORS + i] as f64).clamp(-meta.action_clip, meta.action_clip);
+                let t = (nominal[i] + meta.action_scale * a).clamp(range[i][0], range[i][1]) as f32;
+                worst_t = worst_t.max((out[1][r * N_MOTORS + i] - t).abs());
+            }
+        }
+        assert!(worst_t <= 1e-5, "{name}: motor targets differ by {worst_t}");
+        eprintln!("{name}: max |ONNX − ours| = {worst:.2e} (actions), {worst_t:.2e} (motor targets) on {rows} rows");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn corrupt_or_mismatched_files_are_one_clear_error() {
+    let dir = tempdir("bad");
+    let file = dir.join("C.onnx");
+    topa::export::export(&policy("C"), &file, false).unwrap();
+    // Exported from another policy.
+    let err = topa::export::check(&file, &policy("O")).unwrap_err().to_string();
+    assert!(err.contains("was not exported from") && err.lines().count() == 1, "{err}");
+    // Truncated.
+    let bytes = std::fs::read(&file).unwrap();
+    let cut = dir.join("cut.onnx");
+    std::fs::write(&cut, &bytes[..bytes.len() / 3]).unwrap();
+    let err = format!("{:#}", topa::export::read(&cut).unwrap_err());
+    assert!(err.contains("is not an ONNX model") && err.contains("topa export"), "{err}");
+    // Not ONNX at all.
+    let junk = dir.join("junk.onnx");
+    std::fs::write(&junk, b"{\"hello\": 1}").unwrap();
+    assert!(topa::export::read(&junk).is_err());
+    // A corrupt policy cannot be exported.
+    let copy = dir.join("p");
+    std::fs::create_dir_all(&copy).unwrap();
+    for ext in ["json", "safetensors"] {
+        std::fs::copy(policy("C").with_extension(ext), copy.join(format!("C.{ext}"))).unwrap();
+    }
+    let w = copy.join("C.safetensors");
+    let mut b = std::fs::read(&w).unwrap();
+    let n = b.len();
+    b[n - 5] ^= 0xff;
+    std::fs::write(&w, b).unwrap();
+    let err = topa::export::export(&copy.join("C.json"), &dir.join("x.onnx"), false).unwrap_err().to_string();
+    assert!(err.contains("corrupt"), "{err}");
+    assert!(!dir.join("x.onnx").exists());
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -1,0 +1,92 @@
+//! Rendering by MuJoCo itself on a machine without a display: the standing robot is in the picture where the
+//! camera looks, frames are not blank, a video has the right number of frames, and a machine without the GL
+//! libraries gets told what to install.
+
+use std::path::Path;
+use std::process::Command;
+
+use mujoco_sys::render::Renderer;
+use topa::eval::EvalSettings;
+use topa::play::{self, PlayOptions};
+use topa::video::GlContext;
+use topa_env::{assets, EnvConfig, ModelKind, Task, TopaEnv};
+
+fn tempdir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("topa-video-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn the_standing_robot_fills_the_middle_of_the_frame() {
+    let _gl = GlContext::headless(320, 240).expect("headless OpenGL (EGL)");
+    let model = assets::load_model(ModelKind::Closed).unwrap();
+    let mut env = TopaEnv::new(model.clone(), std::sync::Arc::new(EnvConfig::default()), 1, 0).unwrap();
+    let mut obs = vec![0.0f32; 42];
+    env.reset(&mut obs).unwrap();
+    let mut r = Renderer::new(model.clone(), 320, 240, mujoco_sys::render::Quality::High).unwrap();
+    r.track(env.indices().torso_body, 1.8, 150.0, -15.0);
+    let frame = r.render(env.data_mut(), Some(("time", "0.00 s"))).unwrap().to_vec();
+    assert_eq!(frame.len(), 320 * 240 * 3);
+    // Not blank: the picture has many distinct colours (floor checker, robot shells, shading).
+    let mut colours: Vec<[u8; 3]> = frame.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+    colours.sort();
+    colours.dedup();
+    assert!(colours.len() > 50, "only {} distinct colours", colours.len());
+    // The torso's origin, projected through the camera, lands on one of the torso's own geoms.
+    let torso = env.indices().torso_body;
+    let (px, py) = r.project(env.data().xpos()[torso]).expect("the torso is in front of the camera");
+    assert!((0.0..320.0).contains(&px) && (0.0..240.0).contains(&py), "torso at ({px}, {py})");
+    let g = r.geom_at(env.data_mut(), px as usize, py as usize).unwrap().expect("robot pixels, not background");
+    assert_eq!(model.geom_bodyid()[g] as usize, torso, "the torso's pixel shows geom {g}");
+    // A corner shows the floor or the sky, not the robot.
+    let corner = r.geom_at(env.data_mut(), 2, 237).unwrap();
+    assert!(corner.is_none_or(|g| model.geom_bodyid()[g] == 0), "corner: {corner:?}");
+}
+
+#[test]
+fn a_video_of_n_seconds_has_n_times_fps_frames() {
+    let dir = tempdir("frames");
+    let out = dir.join("stand.gif");
+    let policy = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C.json"));
+    let settings = EvalSettings { settle_s: 1.0, ..EvalSettings::default() };
+    let o = PlayOptions {
+        command: [0.3, 0.0, 0.0],
+        seconds: 1.0,
+        video: Some(out.clone()),
+        video_size: (160, 120),
+        fps: 10,
+        ..Default::default()
+    };
+    let s = play::run(policy, &o, &settings).unwrap();
+    assert_eq!(s.video_frames, 20, "2 s (1 s settling + 1 s) at 10 fps");
+    let mut decoder = gif::DecodeOptions::new().read_info(std::fs::File::open(&out).unwrap()).unwrap();
+    let mut frames = 0;
+    while let Some(f) = decoder.read_next_frame().unwrap() {
+        assert_eq!((f.width, f.height, f.delay), (160, 120, 10));
+        frames += 1;
+    }
+    assert_eq!(frames, 20);
+    assert!(!out.with_extension("gif.tmp").exists(), "no temporary file left");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn without_gl_libraries_the_command_says_what_to_install() {
+    // A libEGL that is not a library stands for a machine without EGL.
+    let dir = tempdir("nogl");
+    std::fs::write(dir.join("libEGL.so.1"), b"not a library").unwrap();
+    std::fs::write(dir.join("libEGL.so"), b"not a library").unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_topa"))
+        .args(["play", "--policy", concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C.json")])
+        .args(["--seconds", "0.1", "--video"])
+        .arg(dir.join("x.gif"))
+        .env("LD_LIBRARY_PATH", &dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "a clean error exit, not a crash: {err}");
+    assert!(err.contains("apt-get install") && err.contains("libegl1"), "{err}");
+    assert!(!dir.join("x.gif").exists() && !dir.join("x.gif.tmp").exists());
+    std::fs::remove_dir_all(dir).ok();
+}
