@@ -8,6 +8,7 @@ use candle_core::{Device, Tensor};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use topa::eval::{noise, push, tracking, EvalSettings, PolicyRunner};
+use topa::play::PlayOptions;
 use topa_env::robot::{self, ModelKind, N_MOTORS};
 use topa_env::{assets, EnvConfig, Task, TopaEnv};
 use trainer::nn::Mlp;
@@ -261,14 +262,8 @@ fn mcap_recording_reads_back_with_the_expected_channels() {
     let dir = tempdir("mcap");
     let hold = constant_policy(&dir, "hold", ModelKind::Closed, hold_action());
     let path = dir.join("run.mcap");
-    let s = topa::play::run(
-        &hold,
-        [0.3, 0.0, 0.0],
-        1.0,
-        Some(path.clone()),
-        &EvalSettings { settle_s: 0.5, ..Default::default() },
-    )
-    .unwrap();
+    let o = PlayOptions { command: [0.3, 0.0, 0.0], seconds: 1.0, record: Some(path.clone()), ..Default::default() };
+    let s = topa::play::run(&hold, &o, &EvalSettings { settle_s: 0.5, ..Default::default() }).unwrap();
     assert!(!s.fell);
     let bytes = std::fs::read(&path).unwrap();
     let mut counts = std::collections::BTreeMap::<String, usize>::new();
@@ -293,7 +288,8 @@ fn mcap_recording_reads_back_with_the_expected_channels() {
     // A run that ends in a fall is still a complete, readable file.
     let zero = constant_policy(&dir, "crouch", ModelKind::Closed, crouch_action());
     let fall_path = dir.join("fall.mcap");
-    let s = topa::play::run(&zero, [0.0; 3], 10.0, Some(fall_path.clone()), &EvalSettings::default()).unwrap();
+    let o = PlayOptions { seconds: 10.0, record: Some(fall_path.clone()), ..Default::default() };
+    let s = topa::play::run(&zero, &o, &EvalSettings::default()).unwrap();
     assert!(s.fell);
     let bytes = std::fs::read(&fall_path).unwrap();
     let n = mcap::MessageStream::new(&bytes).unwrap().count();
