@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Installs what is missing, then runs every test of the workspace (release build: the physics tests need it).
+# Installs what is missing (Open MPI included), then runs every test of the workspace, the multi-rank training
+# tests too (release build: the physics tests need it).
 set -euo pipefail
 cd "$(dirname "$0")"
-. scripts/setup.sh
-cargo test --release --workspace "$@"
+TOPA_MPI=1 . scripts/setup.sh
+cargo test --release --workspace --features topa/mpi "$@"

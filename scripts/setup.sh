@@ -15,6 +15,13 @@ ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1 ' || need_pkgs+=(libegl1)
 ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0 ' || need_pkgs+=(libegl-mesa0)
 [ -e /usr/lib/x86_64-linux-gnu/dri/swrast_dri.so ] || [ -e /usr/lib/aarch64-linux-gnu/dri/swrast_dri.so ] ||
   need_pkgs+=(libgl1-mesa-dri)
+# Multi-machine training (TOPA_MPI=1, the `mpi` cargo feature): Open MPI, and libclang for the binding's bindgen.
+if [ "${TOPA_MPI:-0}" = 1 ]; then
+  command -v mpirun >/dev/null 2>&1 || need_pkgs+=(openmpi-bin)
+  [ -e /usr/lib/x86_64-linux-gnu/openmpi/include/mpi.h ] || [ -e /usr/include/x86_64-linux-gnu/mpi/mpi.h ] ||
+    [ -e /usr/lib/aarch64-linux-gnu/openmpi/include/mpi.h ] || need_pkgs+=(libopenmpi-dev)
+  ldconfig -p 2>/dev/null | grep -q 'libclang' || need_pkgs+=(libclang-dev)
+fi
 if [ ${#need_pkgs[@]} -gt 0 ]; then
   echo "setup: installing ${need_pkgs[*]} (apt-get)" >&2
   SUDO=""

@@ -7,6 +7,8 @@ pub mod eval;
 pub mod eval_cmd;
 pub mod export;
 pub mod info;
+#[cfg(feature = "mpi")]
+pub mod mpi_comm;
 pub mod play;
 pub mod plots;
 pub mod recording;

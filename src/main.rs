@@ -190,6 +190,25 @@ enum BenchCmd {
         #[arg(long, default_value = "assets/policies/C.json")]
         policy: PathBuf,
     },
+    /// Training on N MPI ranks vs one rank with the same threads: samples/s, communication share and bytes per
+    /// iteration (needs a build with `--features mpi` and Open MPI's mpirun).
+    Mpi {
+        #[arg(long, default_value = "configs/cpu.toml")]
+        config: PathBuf,
+        #[arg(long, default_value_t = 2)]
+        ranks: usize,
+        /// Timed iterations per launch.
+        #[arg(long, default_value_t = 10)]
+        iterations: usize,
+        /// Untimed first iterations per launch.
+        #[arg(long, default_value_t = 2)]
+        warmup: usize,
+        /// Interleaved rounds (the fastest of each layout is kept).
+        #[arg(long, default_value_t = 2)]
+        rounds: usize,
+        #[arg(long, default_value = "mpirun")]
+        mpirun: String,
+    },
     /// Milliseconds per frame of MuJoCo's headless renderer (and of GIF encoding).
     Render {
         #[arg(long, default_value_t = 640)]
@@ -316,6 +335,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Cmd::Bench(BenchCmd::Render { width, height, frames, quality }) => {
             bench::render::run(width, height, frames, quality.into())
+        }
+        Cmd::Bench(BenchCmd::Mpi { config, ranks, iterations, warmup, rounds, mpirun }) => {
+            bench::mpi::run(&bench::mpi::Args { config: &config, ranks, iterations, warmup, rounds, mpirun: &mpirun })
         }
         Cmd::Bench(BenchCmd::Memory { envs, steps, policy }) => bench::memory::run(envs, steps, &policy),
         Cmd::Bench(BenchCmd::Train { config, threads, envs, iterations, warmup, integrator, rounds, worker }) => {

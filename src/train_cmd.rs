@@ -2,12 +2,15 @@
 //! atomic checkpoints every K iterations, the latest policy exported next to them, and a PNG learning curve.
 
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use topa_env::{assets, ModelKind, VecEnv};
 use trainer::checkpoint;
+use trainer::comm::{Comm, Single};
+use trainer::config::TaskKind;
 use trainer::metrics::MetricsWriter;
 use trainer::policy_file::{self, PolicyMeta, Provenance};
 use trainer::{IterationLog, TrainConfig, Trainer};
@@ -28,6 +31,67 @@ pub struct TrainArgs {
 /// The TopA batch for a config (the env crate checks the model against the spec).
 pub fn topa_env(cfg: &TrainConfig) -> Result<Box<dyn VecEnv>> {
     Ok(Box::new(assets::topa_batch(&cfg.env, cfg.run.num_envs, cfg.run.seed, 0)?))
+}
+
+/// This rank's share of the run's envs: `run.num_envs / ranks` of them, env `i` seeded as env
+/// `rank · share + i` of a one-process run, so a seed names the same env streams whatever the rank layout.
+fn rank_env(cfg: &TrainConfig, comm: &dyn Comm) -> Result<Box<dyn VecEnv>> {
+    let (size, rank) = (comm.size(), comm.rank());
+    let n = cfg.run.num_envs;
+    if n % size != 0 {
+        bail!("run.num_envs = {n} does not split over {size} MPI ranks: choose a multiple of {size}");
+    }
+    let share = n / size;
+    let first = (rank * share) as u64;
+    Ok(match cfg.run.task {
+        TaskKind::Topa => {
+            let model = assets::load_model(cfg.env.model)?;
+            Box::new(assets::topa_batch_from(model, &cfg.env, first, share, cfg.run.seed, 0)?)
+        }
+        TaskKind::Cartpole => {
+            let model = topa_env::tasks::cartpole::model()?;
+            let tasks = (0..share as u64)
+                .map(|i| topa_env::tasks::CartPole::new(model.clone(), cfg.run.seed, first + i, 200))
+                .collect::<Result<Vec<_>, _>>()?;
+            Box::new(topa_env::BatchEnv::new(tasks, 0)?)
+        }
+    })
+}
+
+/// The ranks of this run: MPI's when launched by `mpirun`/`srun` with the `mpi` feature, else one process.
+fn ranks() -> Result<Rc<dyn Comm>> {
+    let launched = ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_STEP_NUM_TASKS"]
+        .iter()
+        .find_map(|k| std::env::var(k).ok()?.parse::<usize>().ok())
+        .filter(|&n| n > 1);
+    match launched {
+        None => Ok(Rc::new(Single)),
+        #[cfg(feature = "mpi")]
+        Some(_) => Ok(Rc::new(crate::mpi_comm::MpiComm::init()?)),
+        #[cfg(not(feature = "mpi"))]
+        Some(n) => bail!(
+            "started as one of {n} MPI ranks, but this topa was built without MPI: build it with \
+             `cargo build --release --features mpi` (scripts/setup.sh installs Open MPI when TOPA_MPI=1)"
+        ),
+    }
+}
+
+/// Checks that every rank holds the same policy weights (they should, bit for bit); rank 0 errors otherwise.
+fn check_ranks_agree(t: &Trainer) -> Result<u32> {
+    let mut bytes = Vec::new();
+    for v in t.policy.ac.vars() {
+        for x in v.as_tensor().flatten_all()?.to_vec1::<f32>()? {
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    let crc = trainer::tensorfile::checksum(&bytes);
+    if t.comm.size() > 1 {
+        let all = t.comm.gather_bytes(&crc.to_le_bytes());
+        if t.comm.rank() == 0 && all.iter().any(|b| b[..] != crc.to_le_bytes()) {
+            bail!("the MPI ranks' policy weights differ at iteration {} (a bug: please report it)", t.iteration);
+        }
+    }
+    Ok(crc)
 }
 
 /// The command as a user would retype it: `topa` and the arguments, whatever the binary's path.
@@ -89,8 +153,13 @@ fn progress_line(log: &IterationLog, total: usize) -> String {
     } else {
         format!("return {:.2} | length {:.0}", e.mean_return, e.mean_length)
     };
+    let comm = if log.comm.calls > 0 {
+        format!(" | comm {:.0}% {:.1} MB", 100.0 * log.comm.seconds / log.wall_time_delta(), log.comm.bytes as f64 / 1e6)
+    } else {
+        String::new()
+    };
     format!(
-        "it {}/{total} {phase} | {episodes} | {:.0} samples/s{}",
+        "it {}/{total} {phase} | {episodes} | {:.0} samples/s{comm}{}",
         log.iteration,
         log.fps,
         if e.diverged > 0 { format!(" | {} diverged", e.diverged) } else { String::new() }
@@ -98,6 +167,8 @@ fn progress_line(log: &IterationLog, total: usize) -> String {
 }
 
 pub fn run(args: TrainArgs) -> Result<()> {
+    let comm = ranks()?;
+    let lead = comm.rank() == 0;
     let (mut trainer, out, command, resumed_at) = if let Some(dir) = &args.resume {
         if args.config.is_some()
             || args.model.is_some()
@@ -123,7 +194,8 @@ pub fn run(args: TrainArgs) -> Result<()> {
             cfg.run.iterations = n;
         }
         trainer::nn::init_threads(crate::resolve_threads(cfg.run.threads))?;
-        let mut t = Trainer::new(cfg.clone(), topa_env(&cfg)?, side.with_adversary)?;
+        let mut t = Trainer::new(cfg.clone(), rank_env(&cfg, comm.as_ref())?, side.with_adversary)?;
+        t.set_comm(comm.clone());
         checkpoint::restore(&mut t, &side, &loaded)?;
         eprintln!("resuming {} at iteration {} ({} samples so far)", dir.display(), t.iteration, t.samples);
         let it = t.iteration;
@@ -166,9 +238,12 @@ pub fn run(args: TrainArgs) -> Result<()> {
                 out.display()
             );
         }
-        std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-        trainer::tensorfile::write_atomic(&out.join("config.toml"), toml::to_string_pretty(&cfg)?.as_bytes())?;
-        let mut t = Trainer::new(cfg.clone(), topa_env(&cfg)?, args.adversary)?;
+        if lead {
+            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+            trainer::tensorfile::write_atomic(&out.join("config.toml"), toml::to_string_pretty(&cfg)?.as_bytes())?;
+        }
+        let mut t = Trainer::new(cfg.clone(), rank_env(&cfg, comm.as_ref())?, args.adversary)?;
+        t.set_comm(comm.clone());
         if let Some(from) = &args.init_from {
             let side_path = if from.is_dir() {
                 checkpoint::latest(&from.join("checkpoints")).or_else(|_| checkpoint::latest(from))?
@@ -183,32 +258,56 @@ pub fn run(args: TrainArgs) -> Result<()> {
     };
 
     let ckpt_dir = out.join("checkpoints");
-    let mut metrics = MetricsWriter::open(&out, &trainer.env.term_names(), resumed_at)?;
+    // Rank 0 alone writes (metrics, checkpoints, the policy) and reports; the others only train.
+    let mut metrics =
+        if lead { Some(MetricsWriter::open(&out, &trainer.env.term_names(), resumed_at)?) } else { None };
+    if comm.size() > 1 && lead {
+        eprintln!(
+            "{} MPI ranks × {} envs; after an interruption: mpirun -np {} topa train --resume {}",
+            comm.size(),
+            trainer.env.num_envs(),
+            comm.size(),
+            out.display()
+        );
+    }
     let total = trainer.total_iterations();
-    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(total as u64) };
+    let bar = if args.quiet || !lead { ProgressBar::hidden() } else { ProgressBar::new(total as u64) };
     bar.set_style(ProgressStyle::with_template("{bar:30} {msg} | ETA {eta}").unwrap());
     bar.set_position(trainer.iteration as u64);
     let every = trainer.cfg.run.checkpoint_every;
     let keep = trainer.cfg.run.keep_checkpoints;
     let started = Instant::now();
+    let save = |t: &Trainer| -> Result<()> {
+        check_ranks_agree(t)?;
+        checkpoint::save(t, &ckpt_dir, &command, keep)?;
+        if lead {
+            export_policy(t, &out, &command)?;
+        }
+        Ok(())
+    };
     while let Some(log) = trainer.iterate()? {
-        metrics.write(&log)?;
+        if let Some(m) = &mut metrics {
+            m.write(&log)?;
+        }
         bar.set_position(log.iteration as u64);
         bar.set_message(progress_line(&log, total));
-        if args.quiet && log.iteration % 10 == 0 {
+        if args.quiet && lead && log.iteration % 10 == 0 {
             eprintln!("{}", progress_line(&log, total));
         }
         if log.iteration % every == 0 || trainer.is_done() {
-            checkpoint::save(&trainer, &ckpt_dir, &command, keep)?;
-            export_policy(&trainer, &out, &command)?;
+            save(&trainer)?;
         }
     }
     bar.finish();
     // A resume that shortened the run to where it stood exports here: the record then names the final config.
     if resumed_at == Some(trainer.iteration) {
-        checkpoint::save(&trainer, &ckpt_dir, &command, keep)?;
-        export_policy(&trainer, &out, &command)?;
+        save(&trainer)?;
     }
+    let crc = check_ranks_agree(&trainer)?;
+    if comm.size() > 1 {
+        eprintln!("rank {}/{}: policy weights crc32 {crc:08x}", comm.rank(), comm.size());
+    }
+    let Some(metrics) = metrics else { return Ok(()) };
     let png = out.join("learning_curve.png");
     if let Err(e) = crate::plots::learning_curve(metrics.csv_path(), &png) {
         log::warn!("no learning curve: {e:#}");

@@ -2,6 +2,7 @@
 
 pub mod env;
 pub mod memory;
+pub mod mpi;
 pub mod physics;
 pub mod ppo;
 pub mod render;

@@ -43,6 +43,18 @@ pub fn topa_batch_on(
     seed: u64,
     threads: usize,
 ) -> Result<BatchEnv<TopaEnv>> {
+    topa_batch_from(model, cfg, 0, n, seed, threads)
+}
+
+/// `n` envs seeded as envs `first`, `first + 1`, … of a larger batch (one MPI rank's share of a run).
+pub fn topa_batch_from(
+    model: Arc<Model>,
+    cfg: &EnvConfig,
+    first: u64,
+    n: usize,
+    seed: u64,
+    threads: usize,
+) -> Result<BatchEnv<TopaEnv>> {
     cfg.validate()?;
     // Apply the timestep and integrator once, so the envs share one model until randomisation copies it.
     let mut model = model;
@@ -54,7 +66,7 @@ pub fn topa_batch_on(
     let cfg = Arc::new(cfg.clone());
     let idx = Arc::new(RobotIndices::resolve(&model, cfg.model)?);
     let envs = (0..n)
-        .map(|i| TopaEnv::with_indices(model.clone(), cfg.clone(), idx.clone(), seed, i as u64))
+        .map(|i| TopaEnv::with_indices(model.clone(), cfg.clone(), idx.clone(), seed, first + i as u64))
         .collect::<Result<Vec<_>>>()?;
     BatchEnv::new(envs, threads)
 }

@@ -49,6 +49,61 @@ pub struct Sidecar {
     pub config: TrainConfig,
     /// The command line that started the run (for the record).
     pub command: String,
+    /// MPI ranks that wrote it: the env arrays hold `ranks × num_envs` rows in rank order, `rng` is rank 0's
+    /// stream and `rank_rngs` those of ranks 1…
+    #[serde(default = "one_rank")]
+    pub ranks: usize,
+    #[serde(default)]
+    pub rank_rngs: Vec<Vec<u64>>,
+}
+
+fn one_rank() -> usize {
+    1
+}
+
+/// One rank's part of a checkpoint: its envs and its random stream.
+struct RankState {
+    f64s: Vec<f64>,
+    u64s: Vec<u64>,
+    obs: Vec<f32>,
+    rng: Vec<u64>,
+}
+
+impl RankState {
+    fn to_bytes(&self) -> Vec<u8> {
+        let mut b = Vec::new();
+        for len in [self.f64s.len(), self.u64s.len(), self.obs.len(), self.rng.len()] {
+            b.extend_from_slice(&(len as u64).to_le_bytes());
+        }
+        self.f64s.iter().for_each(|x| b.extend_from_slice(&x.to_le_bytes()));
+        self.u64s.iter().for_each(|x| b.extend_from_slice(&x.to_le_bytes()));
+        self.obs.iter().for_each(|x| b.extend_from_slice(&x.to_le_bytes()));
+        self.rng.iter().for_each(|x| b.extend_from_slice(&x.to_le_bytes()));
+        b
+    }
+
+    fn from_bytes(b: &[u8]) -> Result<RankState> {
+        let word = |i: usize| -> Result<u64> {
+            let w = b.get(8 * i..8 * i + 8).context("a rank's checkpoint state is truncated")?;
+            Ok(u64::from_le_bytes(w.try_into().expect("8 bytes")))
+        };
+        let lens = [word(0)? as usize, word(1)? as usize, word(2)? as usize, word(3)? as usize];
+        let need = 32 + 8 * lens[0] + 8 * lens[1] + 4 * lens[2] + 8 * lens[3];
+        if b.len() != need {
+            bail!("a rank's checkpoint state has {} bytes, its header says {need}", b.len());
+        }
+        let mut at = 32;
+        let mut take = |n: usize, w: usize| {
+            let chunk = &b[at..at + n * w];
+            at += n * w;
+            chunk
+        };
+        let f64s = take(lens[0], 8).chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect();
+        let u64s = take(lens[1], 8).chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().unwrap())).collect();
+        let obs = take(lens[2], 4).chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+        let rng = take(lens[3], 8).chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().unwrap())).collect();
+        Ok(RankState { f64s, u64s, obs, rng })
+    }
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -101,15 +156,38 @@ pub fn save(t: &Trainer, dir: &Path, command: &str, keep: usize) -> Result<PathB
     };
     let snap = t.env.save_state();
     let n = t.env.num_envs();
-    b.add_f64("env.f64", &[n, snap.f64_width], &snap.f64s);
-    b.add_u64("env.u64", &[n, snap.u64_width], &snap.u64s);
-    b.add_f32("env.obs", &[n, t.env.obs_dim()], &snap.obs);
-    let bytes = b.to_bytes(None)?;
-    let stem = format!("ckpt_{:07}", t.iteration);
-    let weights = format!("{stem}.safetensors");
-    write_atomic(&dir.join(&weights), &bytes)?;
+    let mut rank_rngs_into = Vec::new();
     let mut rng = Vec::new();
     topa_env::task::save_rng(&t.rng, &mut rng);
+    let stem = format!("ckpt_{:07}", t.iteration);
+    let side_path = dir.join(format!("{stem}.json"));
+    // Every rank's envs and stream go to rank 0, which alone writes (the weights are the same on all ranks).
+    let mut state = RankState { f64s: snap.f64s, u64s: snap.u64s, obs: snap.obs, rng };
+    let ranks = t.comm.size();
+    if ranks > 1 {
+        let all = t.comm.gather_bytes(&state.to_bytes());
+        if t.comm.rank() != 0 {
+            return Ok(side_path);
+        }
+        let mut parts = all.iter().map(|b| RankState::from_bytes(b)).collect::<Result<Vec<_>>>()?;
+        let rank0_rng = std::mem::take(&mut parts[0].rng);
+        state = RankState {
+            f64s: parts.iter().flat_map(|p| p.f64s.iter().copied()).collect(),
+            u64s: parts.iter().flat_map(|p| p.u64s.iter().copied()).collect(),
+            obs: parts.iter().flat_map(|p| p.obs.iter().copied()).collect(),
+            rng: rank0_rng,
+        };
+        parts.remove(0);
+        rank_rngs_into = parts.into_iter().map(|p| p.rng).collect();
+    }
+    let rows = ranks * n;
+    b.add_f64("env.f64", &[rows, snap.f64_width], &state.f64s);
+    b.add_u64("env.u64", &[rows, snap.u64_width], &state.u64s);
+    b.add_f32("env.obs", &[rows, t.env.obs_dim()], &state.obs);
+    let bytes = b.to_bytes(None)?;
+    let weights = format!("{stem}.safetensors");
+    write_atomic(&dir.join(&weights), &bytes)?;
+    let rng = state.rng;
     let side = Sidecar {
         format: FORMAT.into(),
         version: VERSION,
@@ -129,8 +207,9 @@ pub fn save(t: &Trainer, dir: &Path, command: &str, keep: usize) -> Result<PathB
         weights,
         config: t.cfg.clone(),
         command: command.to_string(),
+        ranks,
+        rank_rngs: rank_rngs_into,
     };
-    let side_path = dir.join(format!("{stem}.json"));
     write_atomic(&side_path, serde_json::to_string_pretty(&side)?.as_bytes())?;
     let latest = Latest { sidecar: format!("{stem}.json"), iteration: t.iteration };
     write_atomic(&dir.join("latest.json"), serde_json::to_string_pretty(&latest)?.as_bytes())?;
@@ -207,22 +286,36 @@ pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
             if side.with_adversary { "with" } else { "without" }
         );
     }
+    let (ranks, rank) = (t.comm.size(), t.comm.rank());
+    if side.ranks != ranks || side.rank_rngs.len() + 1 != side.ranks {
+        bail!(
+            "this checkpoint was written by {} MPI rank(s) and this run has {ranks}: resume it with `mpirun -np {} \
+             topa train --resume …` (each rank continues its own envs), or start a new run from its policy with \
+             `--init-from` (weights, optimiser and normaliser; fresh envs)",
+            side.ranks,
+            side.ranks
+        );
+    }
     load_agent(l, "policy", &mut t.policy, &side.policy)?;
     if let (Some(a), Some(meta)) = (&mut t.adversary, &side.adversary) {
         load_agent(l, "adversary", &mut a.agent, meta)?;
     }
+    let rows = ranks * n;
+    let (fw, uw, od) = (side.env_f64_width, side.env_u64_width, side.obs_dim);
+    let mine = |v: Vec<f64>, w: usize| v[rank * n * w..(rank + 1) * n * w].to_vec();
     let snap = EnvSnapshot {
-        f64_width: side.env_f64_width,
-        f64s: l.f64("env.f64", &[n, side.env_f64_width])?,
-        u64_width: side.env_u64_width,
-        u64s: l.u64("env.u64", &[n, side.env_u64_width])?,
-        obs: l.f32("env.obs", &[n, side.obs_dim])?,
+        f64_width: fw,
+        f64s: mine(l.f64("env.f64", &[rows, fw])?, fw),
+        u64_width: uw,
+        u64s: l.u64("env.u64", &[rows, uw])?[rank * n * uw..(rank + 1) * n * uw].to_vec(),
+        obs: l.f32("env.obs", &[rows, od])?[rank * n * od..(rank + 1) * n * od].to_vec(),
     };
     t.env.load_state(&snap)?;
-    if side.rng.len() != topa_env::task::RNG_WORDS {
-        bail!("checkpoint RNG state has {} words, expected {}", side.rng.len(), topa_env::task::RNG_WORDS);
+    let rng = if rank == 0 { &side.rng } else { &side.rank_rngs[rank - 1] };
+    if rng.len() != topa_env::task::RNG_WORDS {
+        bail!("checkpoint RNG state has {} words, expected {}", rng.len(), topa_env::task::RNG_WORDS);
     }
-    t.rng = topa_env::task::load_rng(&side.rng);
+    t.rng = topa_env::task::load_rng(rng);
     t.iteration = side.iteration;
     t.samples = side.samples;
     t.wall_time_s = side.wall_time_s;

@@ -34,6 +34,17 @@ pub struct RunConfig {
     pub checkpoint_every: usize,
     /// Keep only the newest this many checkpoints (0 = keep all).
     pub keep_checkpoints: usize,
+    /// What is trained: the TopA robot, or the cart-pole (a one-minute check of an install or an MPI cluster).
+    #[serde(default)]
+    pub task: TaskKind,
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TaskKind {
+    #[default]
+    Topa,
+    Cartpole,
 }
 
 impl Default for RunConfig {
@@ -46,6 +57,7 @@ impl Default for RunConfig {
             threads: 0,
             checkpoint_every: 50,
             keep_checkpoints: 3,
+            task: TaskKind::Topa,
         }
     }
 }

@@ -4,6 +4,7 @@
 pub mod actor_critic;
 pub mod adversary;
 pub mod checkpoint;
+pub mod comm;
 pub mod config;
 pub mod metrics;
 pub mod nn;

@@ -68,6 +68,8 @@ impl MetricsWriter {
             "collect_s",
             "inference_s",
             "update_s",
+            "comm_s",
+            "comm_bytes",
             "episodes",
             "mean_return",
             "mean_length",
@@ -128,6 +130,8 @@ impl MetricsWriter {
             log.collect_s,
             log.inference_s,
             log.update_s,
+            log.comm.seconds,
+            log.comm.bytes as f64,
             e.episodes as f64,
             e.mean_return,
             e.mean_length,
@@ -173,7 +177,7 @@ fn tb_tag(column: &str) -> String {
         }
     }
     match column {
-        "fps" | "collect_s" | "inference_s" | "update_s" | "wall_time_s" | "samples" => format!("perf/{column}"),
+        "fps" | "collect_s" | "inference_s" | "update_s" | "comm_s" | "comm_bytes" | "wall_time_s" | "samples" => format!("perf/{column}"),
         _ => format!("episode/{column}"),
     }
 }

@@ -8,6 +8,26 @@ use topa_env::SignedPermutation;
 /// Added to the standard deviation (rsl_rl's EmpiricalNormalization uses 1e-2), so constant inputs stay finite.
 pub const STD_EPS: f64 = 1e-2;
 
+/// One batch's statistics, as merged into a `Normalizer` (and exchanged between ranks).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Moments {
+    pub mean: Vec<f64>,
+    pub m2: Vec<f64>,
+    pub count: f64,
+}
+
+impl Moments {
+    /// `[count, mean…, m2…]`, the layout ranks exchange.
+    pub fn to_flat(&self) -> Vec<f64> {
+        std::iter::once(self.count).chain(self.mean.iter().copied()).chain(self.m2.iter().copied()).collect()
+    }
+
+    pub fn from_flat(f: &[f64]) -> Moments {
+        let d = (f.len() - 1) / 2;
+        Moments { count: f[0], mean: f[1..1 + d].to_vec(), m2: f[1 + d..].to_vec() }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct Normalizer {
     pub mean: Vec<f64>,
@@ -37,10 +57,16 @@ impl Normalizer {
 
     /// Adds a batch (`rows` × dim, row-major) to the statistics, unless frozen.
     pub fn update(&mut self, batch: &[f32]) {
-        let d = self.dim();
         if self.frozen || batch.is_empty() {
             return;
         }
+        let m = self.batch_moments(batch);
+        self.merge(&m);
+    }
+
+    /// A batch's mean, squared deviations and row count (its mirror image included when there is a symmetry).
+    pub fn batch_moments(&self, batch: &[f32]) -> Moments {
+        let d = self.dim();
         let rows = batch.len() / d;
         let mut sum = vec![0.0f64; d];
         for row in batch.chunks_exact(d) {
@@ -49,10 +75,10 @@ impl Normalizer {
             }
         }
         let (bmean, nb) = match &self.mirror {
-            None => (sum.iter().map(|s| s / rows as f64).collect::<Vec<_>>(), rows as f64),
+            None => (sum.iter().map(|s| s / rows.max(1) as f64).collect::<Vec<_>>(), rows as f64),
             Some(m) => {
-                let n = 2.0 * rows as f64;
-                ((0..d).map(|i| (sum[i] + m.sign[i] as f64 * sum[m.perm[i]]) / n).collect(), n)
+                let n = (2 * rows.max(1)) as f64;
+                ((0..d).map(|i| (sum[i] + m.sign[i] as f64 * sum[m.perm[i]]) / n).collect(), 2.0 * rows as f64)
             }
         };
         // Per-column squared deviations, each column around its own batch mean.
@@ -63,17 +89,25 @@ impl Normalizer {
                 q[i] += dev * dev;
             }
         }
-        let bm2: Vec<f64> = match &self.mirror {
-            None => q.clone(),
+        let m2: Vec<f64> = match &self.mirror {
+            None => q,
             // The mirrored rows of column i are sign·column perm[i], whose deviations from mean[i] are those of
             // column perm[i] from its own mean (mean[perm i] = sign·mean[i]).
             Some(m) => (0..d).map(|i| q[i] + q[m.perm[i]]).collect(),
         };
-        let total = self.count + nb;
-        for i in 0..d {
-            let delta = bmean[i] - self.mean[i];
-            self.mean[i] += delta * nb / total;
-            self.m2[i] += bm2[i] + delta * delta * self.count * nb / total;
+        Moments { mean: bmean, m2, count: nb }
+    }
+
+    /// Chan et al.'s merge of a batch's moments into the running statistics.
+    pub fn merge(&mut self, b: &Moments) {
+        if b.count <= 0.0 {
+            return;
+        }
+        let total = self.count + b.count;
+        for i in 0..self.dim() {
+            let delta = b.mean[i] - self.mean[i];
+            self.mean[i] += delta * b.count / total;
+            self.m2[i] += b.m2[i] + delta * delta * self.count * b.count / total;
         }
         self.count = total;
     }

@@ -69,7 +69,11 @@ impl AdamW {
     /// Clips the gradients to `max_norm` (global L2 norm over all vars) and takes one Adam step with `lr`.
     /// A non-finite gradient skips the step and leaves weights and moments untouched.
     pub fn clipped_step(&mut self, grads: &GradStore, lr: f64, max_norm: f64) -> Result<StepInfo> {
-        let mut g = self.gradients(grads)?;
+        self.clipped_step_on(self.gradients(grads)?, lr, max_norm)
+    }
+
+    /// As `clipped_step`, on gradients already taken out of the graph (one vector per variable).
+    pub fn clipped_step_on(&mut self, mut g: Vec<Vec<f32>>, lr: f64, max_norm: f64) -> Result<StepInfo> {
         let norm = global_norm(&g);
         if !norm.is_finite() {
             return Ok(StepInfo { grad_norm: norm, clipped_norm: 0.0, applied: false });

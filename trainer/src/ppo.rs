@@ -7,9 +7,12 @@ use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use topa_env::Symmetry;
 
+use std::rc::Rc;
+
 use crate::actor_critic::{self, ActorCritic, InferenceBuffers};
+use crate::comm::{Comm, Single};
 use crate::config::{LossConfig, PpoConfig};
-use crate::normalizer::Normalizer;
+use crate::normalizer::{Moments, Normalizer};
 use crate::optim::{AdamParams, AdamW};
 use crate::storage::Rollout;
 
@@ -41,6 +44,8 @@ pub struct Agent {
     pub losses: LossConfig,
     /// Mirror maps for the symmetry loss (None: no symmetry term).
     pub symmetry: Option<Symmetry>,
+    /// The ranks of a multi-process run: gradients, KL and normaliser statistics are combined over them.
+    pub comm: Rc<dyn Comm>,
     buffers: InferenceBuffers,
 }
 
@@ -65,6 +70,7 @@ impl Agent {
             ppo,
             losses,
             symmetry,
+            comm: Rc::new(Single),
             buffers: InferenceBuffers::default(),
         }
     }
@@ -73,7 +79,7 @@ impl Agent {
     /// mean when `explore` is false) and evaluates log-probabilities and values.
     pub fn act(&mut self, raw_obs: &[f32], rng: &mut ChaCha8Rng, explore: bool, out: ActOutput<'_>) -> Result<()> {
         let rows = raw_obs.len() / self.ac.obs_dim;
-        self.normalizer.update(raw_obs);
+        self.update_normalizer(raw_obs);
         self.normalizer.normalize(raw_obs, out.obs_norm);
         let b = &mut self.buffers;
         self.ac.actor.forward_inference(out.obs_norm, rows, &mut b.mean, &mut b.actor);
@@ -92,6 +98,19 @@ impl Agent {
     }
 
     /// Values of raw observations (normalised with the current statistics, which are not updated).
+    /// Adds this step's observations of every rank, merged in rank order (the same statistics on all ranks).
+    fn update_normalizer(&mut self, raw_obs: &[f32]) {
+        if self.comm.size() == 1 {
+            self.normalizer.update(raw_obs);
+        } else if !self.normalizer.frozen {
+            let local = self.normalizer.batch_moments(raw_obs).to_flat();
+            let all = self.comm.all_gather_f64(&local);
+            for m in all.chunks_exact(local.len()) {
+                self.normalizer.merge(&Moments::from_flat(m));
+            }
+        }
+    }
+
     pub fn values(&mut self, raw_obs: &[f32], out: &mut [f32]) {
         let rows = raw_obs.len() / self.ac.obs_dim;
         let mut norm = vec![0.0; raw_obs.len()];
@@ -143,19 +162,50 @@ impl Agent {
         let new_mean = mean.flatten_all()?.to_vec1::<f32>()?;
         let new_std = self.ac.log_std.as_tensor().exp()?.to_vec1::<f32>()?;
         let kl = actor_critic::mean_kl(&b.means, old_std, &new_mean, &new_std);
-        if self.ppo.adaptive_lr {
-            self.lr = adapt_learning_rate(self.lr, kl, &self.ppo);
-        }
         let terms = self.loss_terms(b, &obs, &mean)?;
         stats.minibatches += 1;
         let loss_value = terms.total.to_scalar::<f32>()?;
-        if !loss_value.is_finite() {
-            stats.skipped += 1;
-            log::warn!("PPO: non-finite loss, minibatch skipped (weights kept)");
-            return Ok(());
-        }
-        let grads = terms.total.backward()?;
-        let info = self.opt.clipped_step(&grads, self.lr, self.ppo.max_grad_norm)?;
+        let (kl, info) = if self.comm.size() == 1 {
+            if self.ppo.adaptive_lr {
+                self.lr = adapt_learning_rate(self.lr, kl, &self.ppo);
+            }
+            if !loss_value.is_finite() {
+                stats.skipped += 1;
+                log::warn!("PPO: non-finite loss, minibatch skipped (weights kept)");
+                return Ok(());
+            }
+            let grads = terms.total.backward()?;
+            (kl, self.opt.clipped_step(&grads, self.lr, self.ppo.max_grad_norm)?)
+        } else {
+            // All ranks take the same step: the mean gradient, the mean KL, and a skip if any rank's loss failed.
+            let mut g = if loss_value.is_finite() {
+                self.opt.gradients(&terms.total.backward()?)?
+            } else {
+                self.opt.vars().iter().map(|v| vec![0.0; v.elem_count()]).collect()
+            };
+            let mut flat = g.concat();
+            self.comm.sum_f32(&mut flat);
+            let mut scalars = [kl, if loss_value.is_finite() { 0.0 } else { 1.0 }];
+            self.comm.sum_f64(&mut scalars);
+            let size = self.comm.size() as f64;
+            let kl = scalars[0] / size;
+            if self.ppo.adaptive_lr {
+                self.lr = adapt_learning_rate(self.lr, kl, &self.ppo);
+            }
+            if scalars[1] > 0.0 {
+                stats.skipped += 1;
+                log::warn!("PPO: non-finite loss on some rank, minibatch skipped on all (weights kept)");
+                return Ok(());
+            }
+            let mut at = 0;
+            for gi in &mut g {
+                for (x, s) in gi.iter_mut().zip(&flat[at..]) {
+                    *x = (*s as f64 / size) as f32;
+                }
+                at += gi.len();
+            }
+            (kl, self.opt.clipped_step_on(g, self.lr, self.ppo.max_grad_norm)?)
+        };
         if !info.applied {
             stats.skipped += 1;
             log::warn!("PPO: non-finite gradient, minibatch skipped (weights kept)");

@@ -2,6 +2,7 @@
 //! the cyclic adversary's perturbations. Everything random comes from one seeded stream, so a seed (plus a
 //! checkpoint, when resuming) fixes the run.
 
+use std::rc::Rc;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
@@ -11,6 +12,7 @@ use topa_env::{EpisodeStats, StepTiming, VecEnv};
 
 use crate::actor_critic::ActorCritic;
 use crate::adversary;
+use crate::comm::{Comm, CommStats, Single};
 use crate::config::{LossConfig, TrainConfig};
 use crate::ppo::{ActOutput, Agent, UpdateStats};
 use crate::schedule::{Phase, Position, Schedule};
@@ -20,6 +22,13 @@ use crate::storage::Rollout;
 pub struct Adversary {
     pub agent: Agent,
     pub bounds: Vec<f32>,
+}
+
+impl IterationLog {
+    /// This iteration's wall time (collection and update), s.
+    pub fn wall_time_delta(&self) -> f64 {
+        self.collect_s + self.update_s
+    }
 }
 
 /// What one iteration did (one row of the training log).
@@ -46,6 +55,8 @@ pub struct IterationLog {
     /// Mean |command offset|, |gravity offset|, |foot force| the adversary applied (zeros in phase 1).
     pub perturbation: [f64; 3],
     pub action_std: f64,
+    /// Time in collectives and bytes this rank sent and received (zero in a one-process run).
+    pub comm: CommStats,
 }
 
 pub struct Trainer {
@@ -59,6 +70,8 @@ pub struct Trainer {
     pub iteration: usize,
     pub samples: u64,
     pub wall_time_s: f64,
+    /// The ranks this run is spread over (`Single` unless launched under MPI).
+    pub comm: Rc<dyn Comm>,
     policy_rollout: Rollout,
     adversary_rollout: Option<Rollout>,
     scratch: Scratch,
@@ -123,9 +136,24 @@ impl Trainer {
             iteration: 0,
             samples: 0,
             wall_time_s: 0.0,
+            comm: Rc::new(Single),
         };
         t.env.reset().context("resetting the environments")?;
         Ok(t)
+    }
+
+    /// Spreads the run over `comm`'s ranks. Call right after `new`, before any iteration or restore: every rank
+    /// starts from the same weights (the run seed made them), then draws its own actions and minibatches (its
+    /// own stream of the seed; rank 0 keeps the one-process stream).
+    pub fn set_comm(&mut self, comm: Rc<dyn Comm>) {
+        if comm.rank() > 0 {
+            self.rng.set_stream(comm.rank() as u64);
+        }
+        self.policy.comm = comm.clone();
+        if let Some(a) = &mut self.adversary {
+            a.agent.comm = comm.clone();
+        }
+        self.comm = comm;
     }
 
     pub fn total_iterations(&self) -> usize {
@@ -160,12 +188,13 @@ impl Trainer {
             adversary_stats = Some(a.agent.update(r, &mut self.rng)?);
         }
         let update_s = t_update.elapsed().as_secs_f64();
-        let n = (self.env.num_envs() * self.cfg.run.steps_per_env) as u64;
+        let n = (self.env.num_envs() * self.cfg.run.steps_per_env * self.comm.size()) as u64;
         self.samples += n;
         self.iteration += 1;
         let elapsed = start.elapsed().as_secs_f64();
         self.wall_time_s += elapsed;
         let std = self.policy.ac.std()?;
+        let (episodes, mean_step_reward) = self.all_ranks_episodes(mean_step_reward);
         Ok(Some(IterationLog {
             iteration: self.iteration,
             phase: pos.phase,
@@ -176,14 +205,36 @@ impl Trainer {
             inference_s,
             update_s,
             fps: n as f64 / elapsed,
-            episodes: self.env.take_episode_stats(),
+            episodes,
             env_timing: self.env.take_step_timing(),
             mean_step_reward,
             policy: policy_stats,
             adversary: adversary_stats,
             perturbation,
             action_std: std.iter().map(|&s| s as f64).sum::<f64>() / std.len() as f64,
+            comm: self.comm.take_stats(),
         }))
+    }
+
+    /// This iteration's finished episodes and mean step reward over all ranks (for the log).
+    fn all_ranks_episodes(&mut self, mean_step_reward: f64) -> (EpisodeStats, f64) {
+        let mut e = self.env.take_episode_stats();
+        e.mean_terms.resize(self.env.term_names().len(), 0.0);
+        let size = self.comm.size();
+        if size == 1 {
+            return (e, mean_step_reward);
+        }
+        let k = e.episodes as f64;
+        let mut v = vec![k, k * e.mean_return, k * e.mean_length, k * e.time_out_share, e.diverged as f64];
+        v.push(mean_step_reward);
+        v.extend(e.mean_terms.iter().map(|t| k * t));
+        self.comm.sum_f64(&mut v);
+        let total = v[0].max(1.0);
+        e.episodes = v[0] as usize;
+        (e.mean_return, e.mean_length, e.time_out_share) = (v[1] / total, v[2] / total, v[3] / total);
+        e.diverged = v[4] as usize;
+        e.mean_terms = v[6..].iter().map(|t| t / total).collect();
+        (e, v[5] / size as f64)
     }
 
     /// One rollout of `steps_per_env` steps; fills the learning agent's storage and computes its returns.
