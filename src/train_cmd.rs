@@ -154,7 +154,11 @@ fn progress_line(log: &IterationLog, total: usize) -> String {
         format!("return {:.2} | length {:.0}", e.mean_return, e.mean_length)
     };
     let comm = if log.comm.calls > 0 {
-        format!(" | comm {:.0}% {:.1} MB", 100.0 * log.comm.seconds / log.wall_time_delta(), log.comm.bytes as f64 / 1e6)
+        format!(
+            " | comm {:.0}% {:.1} MB",
+            100.0 * log.comm.seconds / log.wall_time_delta(),
+            log.comm.bytes as f64 / 1e6
+        )
     } else {
         String::new()
     };
@@ -259,8 +263,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
 
     let ckpt_dir = out.join("checkpoints");
     // Rank 0 alone writes (metrics, checkpoints, the policy) and reports; the others only train.
-    let mut metrics =
-        if lead { Some(MetricsWriter::open(&out, &trainer.env.term_names(), resumed_at)?) } else { None };
+    let mut metrics = if lead { Some(MetricsWriter::open(&out, &trainer.env.term_names(), resumed_at)?) } else { None };
     if comm.size() > 1 && lead {
         eprintln!(
             "{} MPI ranks × {} envs; after an interruption: mpirun -np {} topa train --resume {}",

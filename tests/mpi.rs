@@ -13,6 +13,13 @@ use trainer::config::TaskKind;
 
 const TOPA: &str = env!("CARGO_BIN_EXE_topa");
 
+/// One MPI job at a time: each already runs two ranks on this machine's cores.
+static ONE_JOB: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn one_job() -> std::sync::MutexGuard<'static, ()> {
+    ONE_JOB.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 fn tempdir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("topa-mpi-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -47,14 +54,16 @@ fn cartpole_file(dir: &Path, envs: usize, iterations: usize) -> PathBuf {
     path
 }
 
-/// The ranks' final weight digests, in rank order, from their "rank r/N: policy weights crc32 …" lines.
+/// The ranks' final weight digests, in rank order, from their "rank r/N: policy weights crc32 …" reports
+/// (searched anywhere in the output: mpirun may interleave the ranks' lines).
 fn digests(out: &Output) -> Vec<String> {
     let text = String::from_utf8_lossy(&out.stderr);
     let mut d: Vec<(usize, String)> = text
-        .lines()
-        .filter_map(|l| {
-            let (rank, rest) = l.strip_prefix("rank ")?.split_once('/')?;
-            Some((rank.parse().ok()?, rest.split("crc32 ").nth(1)?.trim().to_string()))
+        .match_indices(": policy weights crc32 ")
+        .filter_map(|(at, m)| {
+            let before = &text[..at];
+            let rank = before[before.rfind("rank ")? + 5..].split('/').next()?.parse().ok()?;
+            Some((rank, text[at + m.len()..].chars().take(8).collect()))
         })
         .collect();
     d.sort();
@@ -85,6 +94,7 @@ fn train(np: usize, config: &Path, out: &Path) -> Output {
 
 #[test]
 fn two_ranks_keep_identical_weights_and_learn_like_one_rank_with_all_the_envs() {
+    let _one = one_job();
     let dir = tempdir("learn");
     let (two, one) = (dir.join("two"), dir.join("one"));
     let out = train(2, &cartpole_file(&dir, 32, 40), &two);
@@ -99,10 +109,10 @@ fn two_ranks_keep_identical_weights_and_learn_like_one_rank_with_all_the_envs() 
     let late = |l: &[f64]| l[l.len() - 5..].iter().sum::<f64>() / 5.0;
     eprintln!("2 ranks: first {:.1}, best {:.1}, last 5 {:.1}", l2[0], best(&l2), late(&l2));
     eprintln!("1 rank:  first {:.1}, best {:.1}, last 5 {:.1}", l1[0], best(&l1), late(&l1));
-    // Same start (the same envs and weights), both learn to balance (200 = a whole episode), and the late
-    // episode lengths agree within 25 % of an episode (minibatch advantage normalisation is per rank, so the
+    // Both start unable to balance, both learn (200 = a whole episode), and the late episode lengths agree
+    // within 25 % of an episode (rank 1 samples its own actions and advantages are normalised per rank, so the
     // curves are alike, not identical).
-    assert!((l2[0] - l1[0]).abs() < 1.0, "first iterations differ: {} vs {}", l2[0], l1[0]);
+    assert!(l2[0] < 40.0 && l1[0] < 40.0, "a fresh policy does not balance yet: {} / {}", l2[0], l1[0]);
     assert!(best(&l2) > 150.0 && best(&l1) > 150.0, "both learn: {} / {}", best(&l2), best(&l1));
     assert!((late(&l2) - late(&l1)).abs() < 50.0, "late lengths {} vs {}", late(&l2), late(&l1));
     // Communication is reported per iteration.
@@ -116,13 +126,15 @@ fn two_ranks_keep_identical_weights_and_learn_like_one_rank_with_all_the_envs() 
 
 #[test]
 fn the_topa_task_learns_to_stand_on_two_ranks_and_on_one() {
+    let _one = one_job();
     let dir = tempdir("topa");
     let base = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/cpu.toml");
     let cfg_path = dir.join("stand.toml");
     std::fs::write(
         &cfg_path,
         format!(
-            "base = \"{base}\"\n[run]\nnum_envs = 64\niterations = 30\ncheckpoint_every = 30\n\
+            "base = \"{base}\"\n[run]\nnum_envs = 64\niterations = 40\ncheckpoint_every = 40\n\
+             [network]\ninit_noise_std = 0.5\n[ppo]\nlearning_rate = 1e-3\n\
              [env.commands]\nstanding_share = 1.0\n[env.push]\nenabled = false\n"
         ),
     )
@@ -131,8 +143,9 @@ fn the_topa_task_learns_to_stand_on_two_ranks_and_on_one() {
         let out = dir.join(format!("np{np}"));
         train(np, &cfg_path, &out);
         let l = lengths(&out);
-        let (first, last) = (l[0], l[l.len() - 3..].iter().sum::<f64>() / 3.0);
-        eprintln!("{np} rank(s): mean episode length {first:.0} → {last:.0} policy steps");
+        // Standing only (no commands, no pushes) from a quieter start: episodes end by falls, ever later.
+        let (first, last) = (l[..5].iter().sum::<f64>() / 5.0, l[l.len() - 5..].iter().sum::<f64>() / 5.0);
+        eprintln!("{np} rank(s): mean episode length {first:.0} → {last:.0} policy steps (first / last 5 iterations)");
         assert!(last > 2.0 * first, "{np} rank(s): standing does not improve ({first:.0} → {last:.0})");
     }
     std::fs::remove_dir_all(dir).ok();
@@ -150,12 +163,13 @@ fn rank_pid(needle: &str, rank: usize) -> Option<u32> {
 
 #[test]
 fn a_killed_rank_ends_the_job_and_the_last_checkpoint_resumes_exactly() {
+    let _one = one_job();
     let dir = tempdir("kill");
     let cfg = cartpole_file(&dir, 16, 100_000);
     let run_dir = dir.join("run");
     let mut c = mpirun(2);
     c.args(["train", "--quiet", "--threads", "1", "--config"]).arg(&cfg).arg("--out").arg(&run_dir);
-    let mut job = c.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let job = c.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
     let latest = run_dir.join("checkpoints/latest.json");
     let start = Instant::now();
     while !latest.exists() {

@@ -237,7 +237,8 @@ fn unknown_or_invalid_config_keys_are_clear_errors() {
         TrainConfig::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/cpu.toml"))).unwrap();
     // The CPU preset keeps the paper's reward weights; only the air-time term's form differs (README, "Training").
     let mut cpu_rewards = cpu.env.rewards.clone();
-    (cpu_rewards.air_time_form, cpu_rewards.air_time_target) = (ok.env.rewards.air_time_form, ok.env.rewards.air_time_target);
+    (cpu_rewards.air_time_form, cpu_rewards.air_time_target) =
+        (ok.env.rewards.air_time_form, ok.env.rewards.air_time_target);
     assert_eq!(cpu_rewards, ok.env.rewards, "the CPU preset keeps the paper's rewards");
     // Every shipped experiment file loads (its `base` chain included) and changes something.
     let experiments = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/experiments"));

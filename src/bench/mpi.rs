@@ -50,7 +50,8 @@ pub fn run(a: &Args) -> Result<()> {
     let (one, many) = (best[0].expect("one round"), best[1].expect("one round"));
     println!("| layout | samples/s | comm share | comm s/it | MB per rank per iteration |");
     println!("|---|---:|---:|---:|---:|");
-    for (name, l) in [(format!("1 rank × {} threads", a.ranks), one), (format!("{} ranks × 1 thread", a.ranks), many)] {
+    for (name, l) in [(format!("1 rank × {} threads", a.ranks), one), (format!("{} ranks × 1 thread", a.ranks), many)]
+    {
         println!(
             "| {name} | {:.0} | {:.1}% | {:.4} | {:.2} |",
             l.samples_per_s,

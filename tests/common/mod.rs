@@ -1,4 +1,6 @@
 //! The cart-pole set-up shared by the PPO and adversary tests: small networks and batches so a run takes seconds.
+// Each test binary uses its own part of these helpers.
+#![allow(dead_code)]
 
 use topa_env::tasks::{cartpole, CartPole};
 use topa_env::BatchEnv;

@@ -268,6 +268,16 @@ pub fn read_sidecar(path: &Path) -> Result<(Sidecar, Loaded)> {
 
 /// Restores `t` (built from the sidecar's config) to the checkpoint's exact state.
 pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
+    let (ranks, rank) = (t.comm.size(), t.comm.rank());
+    if side.ranks != ranks || side.rank_rngs.len() + 1 != side.ranks {
+        bail!(
+            "this checkpoint was written by {} MPI rank(s) and this run has {ranks}: resume it with `mpirun -np {} \
+             topa train --resume …` (each rank continues its own envs), or start a new run from its policy with \
+             `--init-from` (weights, optimiser and normaliser; fresh envs)",
+            side.ranks,
+            side.ranks
+        );
+    }
     let n = t.env.num_envs();
     if side.num_envs != n || side.obs_dim != t.env.obs_dim() || side.action_dim != t.env.action_dim() {
         bail!(
@@ -284,16 +294,6 @@ pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
             "checkpoint {} an adversary; resume it {} --adversary",
             if side.with_adversary { "has" } else { "has no" },
             if side.with_adversary { "with" } else { "without" }
-        );
-    }
-    let (ranks, rank) = (t.comm.size(), t.comm.rank());
-    if side.ranks != ranks || side.rank_rngs.len() + 1 != side.ranks {
-        bail!(
-            "this checkpoint was written by {} MPI rank(s) and this run has {ranks}: resume it with `mpirun -np {} \
-             topa train --resume …` (each rank continues its own envs), or start a new run from its policy with \
-             `--init-from` (weights, optimiser and normaliser; fresh envs)",
-            side.ranks,
-            side.ranks
         );
     }
     load_agent(l, "policy", &mut t.policy, &side.policy)?;

@@ -71,10 +71,6 @@ impl StatsCell {
     }
 
     pub fn take(&self) -> CommStats {
-        CommStats {
-            seconds: self.seconds.take().as_secs_f64(),
-            bytes: self.bytes.take(),
-            calls: self.calls.take(),
-        }
+        CommStats { seconds: self.seconds.take().as_secs_f64(), bytes: self.bytes.take(), calls: self.calls.take() }
     }
 }

@@ -177,7 +177,9 @@ fn tb_tag(column: &str) -> String {
         }
     }
     match column {
-        "fps" | "collect_s" | "inference_s" | "update_s" | "comm_s" | "comm_bytes" | "wall_time_s" | "samples" => format!("perf/{column}"),
+        "fps" | "collect_s" | "inference_s" | "update_s" | "comm_s" | "comm_bytes" | "wall_time_s" | "samples" => {
+            format!("perf/{column}")
+        }
         _ => format!("episode/{column}"),
     }
 }
