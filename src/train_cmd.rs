@@ -76,7 +76,8 @@ fn ranks() -> Result<Rc<dyn Comm>> {
     }
 }
 
-/// Checks that every rank holds the same policy weights (they should, bit for bit); rank 0 errors otherwise.
+/// Checks that every MPI rank holds the same policy weights (they should, bit for bit): rank 0 errors otherwise.
+/// Returns this rank's digest.
 fn check_ranks_agree(t: &Trainer) -> Result<u32> {
     let mut bytes = Vec::new();
     for v in t.policy.ac.vars() {
@@ -85,11 +86,9 @@ fn check_ranks_agree(t: &Trainer) -> Result<u32> {
         }
     }
     let crc = trainer::tensorfile::checksum(&bytes);
-    if t.comm.size() > 1 {
-        let all = t.comm.gather_bytes(&crc.to_le_bytes());
-        if t.comm.rank() == 0 && all.iter().any(|b| b[..] != crc.to_le_bytes()) {
-            bail!("the MPI ranks' policy weights differ at iteration {} (a bug: please report it)", t.iteration);
-        }
+    let all = t.comm.gather_bytes(&crc.to_le_bytes());
+    if t.comm.rank() == 0 && all.iter().any(|b| b[..] != crc.to_le_bytes()) {
+        bail!("the MPI ranks' policy weights differ at iteration {} (a bug: please report it)", t.iteration);
     }
     Ok(crc)
 }
@@ -281,7 +280,9 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let keep = trainer.cfg.run.keep_checkpoints;
     let started = Instant::now();
     let save = |t: &Trainer| -> Result<()> {
-        check_ranks_agree(t)?;
+        if comm.size() > 1 {
+            check_ranks_agree(t)?;
+        }
         checkpoint::save(t, &ckpt_dir, &command, keep)?;
         if lead {
             export_policy(t, &out, &command)?;
@@ -306,8 +307,8 @@ pub fn run(args: TrainArgs) -> Result<()> {
     if resumed_at == Some(trainer.iteration) {
         save(&trainer)?;
     }
-    let crc = check_ranks_agree(&trainer)?;
     if comm.size() > 1 {
+        let crc = check_ranks_agree(&trainer)?;
         eprintln!("rank {}/{}: policy weights crc32 {crc:08x}", comm.rank(), comm.size());
     }
     let Some(metrics) = metrics else { return Ok(()) };

@@ -72,18 +72,10 @@ fn digests(out: &Output) -> Vec<String> {
 
 /// Mean episode length per iteration (iterations that ended no episode are skipped).
 fn lengths(run: &Path) -> Vec<f64> {
-    let csv = std::fs::read_to_string(run.join("metrics.csv")).unwrap();
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let (ep, len) = (
-        header.iter().position(|h| *h == "episodes").unwrap(),
-        header.iter().position(|h| *h == "mean_length").unwrap(),
-    );
-    lines
-        .map(|l| l.split(',').map(|c| c.parse::<f64>().unwrap_or(0.0)).collect::<Vec<_>>())
-        .filter(|r| r[ep] > 0.0)
-        .map(|r| r[len])
-        .collect()
+    let (header, rows) = trainer::metrics::read_csv(&run.join("metrics.csv")).unwrap();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (ep, len) = (col("episodes"), col("mean_length"));
+    rows.iter().filter(|r| r[ep] > 0.0).map(|r| r[len]).collect()
 }
 
 fn train(np: usize, config: &Path, out: &Path) -> Output {
@@ -116,11 +108,9 @@ fn two_ranks_keep_identical_weights_and_learn_like_one_rank_with_all_the_envs() 
     assert!(best(&l2) > 150.0 && best(&l1) > 150.0, "both learn: {} / {}", best(&l2), best(&l1));
     assert!((late(&l2) - late(&l1)).abs() < 50.0, "late lengths {} vs {}", late(&l2), late(&l1));
     // Communication is reported per iteration.
-    let csv = std::fs::read_to_string(two.join("metrics.csv")).unwrap();
-    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
-    let bytes = header.iter().position(|h| *h == "comm_bytes").unwrap();
-    let row: Vec<f64> = csv.lines().nth(3).unwrap().split(',').map(|c| c.parse().unwrap_or(0.0)).collect();
-    assert!(row[bytes] > 0.0, "comm bytes recorded");
+    let (header, rows) = trainer::metrics::read_csv(&two.join("metrics.csv")).unwrap();
+    let bytes = header.iter().position(|h| h == "comm_bytes").unwrap();
+    assert!(rows[2][bytes] > 0.0, "comm bytes recorded");
     std::fs::remove_dir_all(dir).ok();
 }
 

@@ -92,14 +92,11 @@ fn launch(a: &Args, exe: &Path, np: usize, threads: usize, out: &PathBuf) -> Res
     if !status.success() {
         bail!("mpirun -np {np} topa train failed ({status})");
     }
-    let csv = std::fs::read_to_string(out.join("metrics.csv")).context("reading the run's metrics.csv")?;
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).with_context(|| format!("no column {name}"));
+    let (header, rows) = trainer::metrics::read_csv(&out.join("metrics.csv"))?;
+    let col = |name: &str| header.iter().position(|h| h == name).with_context(|| format!("no column {name}"));
     let (samples, collect, update, comm, bytes) =
         (col("samples")?, col("collect_s")?, col("update_s")?, col("comm_s")?, col("comm_bytes")?);
-    let rows: Vec<Vec<f64>> =
-        lines.skip(a.warmup).map(|l| l.split(',').map(|c| c.parse().unwrap_or(0.0)).collect()).collect();
+    let rows = &rows[a.warmup.min(rows.len())..];
     if rows.is_empty() {
         bail!("no timed iterations in {}", out.display());
     }

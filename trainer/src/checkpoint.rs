@@ -61,51 +61,6 @@ fn one_rank() -> usize {
     1
 }
 
-/// One rank's part of a checkpoint: its envs and its random stream.
-struct RankState {
-    f64s: Vec<f64>,
-    u64s: Vec<u64>,
-    obs: Vec<f32>,
-    rng: Vec<u64>,
-}
-
-impl RankState {
-    fn to_bytes(&self) -> Vec<u8> {
-        let mut b = Vec::new();
-        for len in [self.f64s.len(), self.u64s.len(), self.obs.len(), self.rng.len()] {
-            b.extend_from_slice(&(len as u64).to_le_bytes());
-        }
-        self.f64s.iter().for_each(|x| b.extend_from_slice(&x.to_le_bytes()));
-        self.u64s.iter().for_each(|x| b.extend_from_slice(&x.to_le_bytes()));
-        self.obs.iter().for_each(|x| b.extend_from_slice(&x.to_le_bytes()));
-        self.rng.iter().for_each(|x| b.extend_from_slice(&x.to_le_bytes()));
-        b
-    }
-
-    fn from_bytes(b: &[u8]) -> Result<RankState> {
-        let word = |i: usize| -> Result<u64> {
-            let w = b.get(8 * i..8 * i + 8).context("a rank's checkpoint state is truncated")?;
-            Ok(u64::from_le_bytes(w.try_into().expect("8 bytes")))
-        };
-        let lens = [word(0)? as usize, word(1)? as usize, word(2)? as usize, word(3)? as usize];
-        let need = 32 + 8 * lens[0] + 8 * lens[1] + 4 * lens[2] + 8 * lens[3];
-        if b.len() != need {
-            bail!("a rank's checkpoint state has {} bytes, its header says {need}", b.len());
-        }
-        let mut at = 32;
-        let mut take = |n: usize, w: usize| {
-            let chunk = &b[at..at + n * w];
-            at += n * w;
-            chunk
-        };
-        let f64s = take(lens[0], 8).chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect();
-        let u64s = take(lens[1], 8).chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().unwrap())).collect();
-        let obs = take(lens[2], 4).chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
-        let rng = take(lens[3], 8).chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().unwrap())).collect();
-        Ok(RankState { f64s, u64s, obs, rng })
-    }
-}
-
 #[derive(Debug, Serialize, Deserialize)]
 struct Latest {
     sidecar: String,
@@ -155,39 +110,40 @@ pub fn save(t: &Trainer, dir: &Path, command: &str, keep: usize) -> Result<PathB
         None => None,
     };
     let snap = t.env.save_state();
-    let n = t.env.num_envs();
-    let mut rank_rngs_into = Vec::new();
+    let (n, od) = (t.env.num_envs(), t.env.obs_dim());
+    let (fw, uw) = (snap.f64_width, snap.u64_width);
     let mut rng = Vec::new();
     topa_env::task::save_rng(&t.rng, &mut rng);
     let stem = format!("ckpt_{:07}", t.iteration);
     let side_path = dir.join(format!("{stem}.json"));
+    let (mut f64s, mut u64s, mut obs, mut rank_rngs) = (snap.f64s, snap.u64s, snap.obs, Vec::new());
     // Every rank's envs and stream go to rank 0, which alone writes (the weights are the same on all ranks).
-    let mut state = RankState { f64s: snap.f64s, u64s: snap.u64s, obs: snap.obs, rng };
     let ranks = t.comm.size();
     if ranks > 1 {
-        let all = t.comm.gather_bytes(&state.to_bytes());
+        let mut mine = Bundle::default();
+        mine.add_f64("env.f64", &[n, fw], &f64s);
+        mine.add_u64("env.u64", &[n, uw], &u64s);
+        mine.add_f32("env.obs", &[n, od], &obs);
+        mine.add_u64("rng", &[rng.len()], &rng);
+        let all = t.comm.gather_bytes(&mine.to_bytes(None)?);
         if t.comm.rank() != 0 {
             return Ok(side_path);
         }
-        let mut parts = all.iter().map(|b| RankState::from_bytes(b)).collect::<Result<Vec<_>>>()?;
-        let rank0_rng = std::mem::take(&mut parts[0].rng);
-        state = RankState {
-            f64s: parts.iter().flat_map(|p| p.f64s.iter().copied()).collect(),
-            u64s: parts.iter().flat_map(|p| p.u64s.iter().copied()).collect(),
-            obs: parts.iter().flat_map(|p| p.obs.iter().copied()).collect(),
-            rng: rank0_rng,
-        };
-        parts.remove(0);
-        rank_rngs_into = parts.into_iter().map(|p| p.rng).collect();
+        for (r, bytes) in all.into_iter().enumerate().skip(1) {
+            let l = Loaded::from_bytes(Path::new(&format!("rank {r}'s checkpoint state")), bytes)?;
+            f64s.extend(l.f64("env.f64", &[n, fw])?);
+            u64s.extend(l.u64("env.u64", &[n, uw])?);
+            obs.extend(l.f32("env.obs", &[n, od])?);
+            rank_rngs.push(l.u64("rng", &[rng.len()])?);
+        }
     }
     let rows = ranks * n;
-    b.add_f64("env.f64", &[rows, snap.f64_width], &state.f64s);
-    b.add_u64("env.u64", &[rows, snap.u64_width], &state.u64s);
-    b.add_f32("env.obs", &[rows, t.env.obs_dim()], &state.obs);
+    b.add_f64("env.f64", &[rows, fw], &f64s);
+    b.add_u64("env.u64", &[rows, uw], &u64s);
+    b.add_f32("env.obs", &[rows, od], &obs);
     let bytes = b.to_bytes(None)?;
     let weights = format!("{stem}.safetensors");
     write_atomic(&dir.join(&weights), &bytes)?;
-    let rng = state.rng;
     let side = Sidecar {
         format: FORMAT.into(),
         version: VERSION,
@@ -199,16 +155,16 @@ pub fn save(t: &Trainer, dir: &Path, command: &str, keep: usize) -> Result<PathB
         policy,
         adversary,
         num_envs: n,
-        obs_dim: t.env.obs_dim(),
+        obs_dim: od,
         action_dim: t.env.action_dim(),
-        env_f64_width: snap.f64_width,
-        env_u64_width: snap.u64_width,
+        env_f64_width: fw,
+        env_u64_width: uw,
         weights_crc32: checksum(&bytes),
         weights,
         config: t.cfg.clone(),
         command: command.to_string(),
         ranks,
-        rank_rngs: rank_rngs_into,
+        rank_rngs,
     };
     write_atomic(&side_path, serde_json::to_string_pretty(&side)?.as_bytes())?;
     let latest = Latest { sidecar: format!("{stem}.json"), iteration: t.iteration };

@@ -100,14 +100,12 @@ impl Agent {
     /// Values of raw observations (normalised with the current statistics, which are not updated).
     /// Adds this step's observations of every rank, merged in rank order (the same statistics on all ranks).
     fn update_normalizer(&mut self, raw_obs: &[f32]) {
-        if self.comm.size() == 1 {
-            self.normalizer.update(raw_obs);
-        } else if !self.normalizer.frozen {
-            let local = self.normalizer.batch_moments(raw_obs).to_flat();
-            let all = self.comm.all_gather_f64(&local);
-            for m in all.chunks_exact(local.len()) {
-                self.normalizer.merge(&Moments::from_flat(m));
-            }
+        if self.normalizer.frozen {
+            return;
+        }
+        let local = self.normalizer.batch_moments(raw_obs).to_flat();
+        for m in self.comm.all_gather_f64(&local).chunks_exact(local.len()) {
+            self.normalizer.merge(&Moments::from_flat(m));
         }
     }
 
@@ -165,47 +163,35 @@ impl Agent {
         let terms = self.loss_terms(b, &obs, &mean)?;
         stats.minibatches += 1;
         let loss_value = terms.total.to_scalar::<f32>()?;
-        let (kl, info) = if self.comm.size() == 1 {
-            if self.ppo.adaptive_lr {
-                self.lr = adapt_learning_rate(self.lr, kl, &self.ppo);
-            }
-            if !loss_value.is_finite() {
-                stats.skipped += 1;
-                log::warn!("PPO: non-finite loss, minibatch skipped (weights kept)");
-                return Ok(());
-            }
-            let grads = terms.total.backward()?;
-            (kl, self.opt.clipped_step(&grads, self.lr, self.ppo.max_grad_norm)?)
+        // All ranks take the same step: the mean gradient, the mean KL, and a skip if any rank's loss failed
+        // (with one process the sums are the identity).
+        let mut g = if loss_value.is_finite() {
+            self.opt.gradients(&terms.total.backward()?)?
         } else {
-            // All ranks take the same step: the mean gradient, the mean KL, and a skip if any rank's loss failed.
-            let mut g = if loss_value.is_finite() {
-                self.opt.gradients(&terms.total.backward()?)?
-            } else {
-                self.opt.vars().iter().map(|v| vec![0.0; v.elem_count()]).collect()
-            };
-            let mut flat = g.concat();
-            self.comm.sum_f32(&mut flat);
-            let mut scalars = [kl, if loss_value.is_finite() { 0.0 } else { 1.0 }];
-            self.comm.sum_f64(&mut scalars);
-            let size = self.comm.size() as f64;
-            let kl = scalars[0] / size;
-            if self.ppo.adaptive_lr {
-                self.lr = adapt_learning_rate(self.lr, kl, &self.ppo);
-            }
-            if scalars[1] > 0.0 {
-                stats.skipped += 1;
-                log::warn!("PPO: non-finite loss on some rank, minibatch skipped on all (weights kept)");
-                return Ok(());
-            }
-            let mut at = 0;
-            for gi in &mut g {
-                for (x, s) in gi.iter_mut().zip(&flat[at..]) {
-                    *x = (*s as f64 / size) as f32;
-                }
-                at += gi.len();
-            }
-            (kl, self.opt.clipped_step_on(g, self.lr, self.ppo.max_grad_norm)?)
+            self.opt.vars().iter().map(|v| vec![0.0; v.elem_count()]).collect()
         };
+        let mut flat = g.concat();
+        self.comm.sum_f32(&mut flat);
+        let mut scalars = [kl, if loss_value.is_finite() { 0.0 } else { 1.0 }];
+        self.comm.sum_f64(&mut scalars);
+        let size = self.comm.size() as f64;
+        let kl = scalars[0] / size;
+        if self.ppo.adaptive_lr {
+            self.lr = adapt_learning_rate(self.lr, kl, &self.ppo);
+        }
+        if scalars[1] > 0.0 {
+            stats.skipped += 1;
+            log::warn!("PPO: non-finite loss, minibatch skipped on every rank (weights kept)");
+            return Ok(());
+        }
+        let mut at = 0;
+        for gi in &mut g {
+            for (x, s) in gi.iter_mut().zip(&flat[at..]) {
+                *x = (*s as f64 / size) as f32;
+            }
+            at += gi.len();
+        }
+        let info = self.opt.clipped_step_on(g, self.lr, self.ppo.max_grad_norm)?;
         if !info.applied {
             stats.skipped += 1;
             log::warn!("PPO: non-finite gradient, minibatch skipped (weights kept)");

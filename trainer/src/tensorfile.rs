@@ -86,13 +86,18 @@ pub struct Loaded {
 impl Loaded {
     pub fn read(path: &Path) -> Result<Loaded> {
         let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+        Loaded::from_bytes(path, bytes)
+    }
+
+    /// Safetensors bytes already in memory (e.g. received from another rank); `origin` names them in errors.
+    pub fn from_bytes(origin: &Path, bytes: Vec<u8>) -> Result<Loaded> {
         SafeTensors::deserialize(&bytes).map_err(|e| {
             anyhow::anyhow!(
                 "{} is not a valid safetensors file ({e}): the file is corrupt or truncated",
-                path.display()
+                origin.display()
             )
         })?;
-        Ok(Loaded { path: path.to_path_buf(), bytes })
+        Ok(Loaded { path: origin.to_path_buf(), bytes })
     }
 
     pub fn bytes(&self) -> &[u8] {

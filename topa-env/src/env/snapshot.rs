@@ -1,0 +1,122 @@
+//! An env's complete state as flat f64/u64 rows (checkpoints resume bit for bit, evaluation snapshots).
+
+use super::TopaEnv;
+use crate::error::{EnvError, Result};
+use crate::perturb::Perturbation;
+use crate::robot::N_MOTORS;
+use crate::{state, task};
+
+impl TopaEnv {
+    /// Appends everything that makes this env's future: the MuJoCo state, the randomised model values, the
+    /// command, perturbations, gait timers, counters, the random stream and the sim2sim state.
+    pub(super) fn save_snapshot(&self, f: &mut Vec<f64>, u: &mut Vec<u64>) {
+        let d = &self.data;
+        for arr in [d.qpos(), d.qvel(), d.act(), d.ctrl(), d.qacc_warmstart()] {
+            f.extend_from_slice(arr);
+        }
+        f.push(d.time());
+        let m = d.model();
+        f.extend_from_slice(m.body_mass());
+        f.extend(m.body_inertia().iter().flatten());
+        f.extend(m.geom_friction().iter().map(|g| g[0]));
+        f.extend_from_slice(&self.command);
+        let o = self.command_override;
+        f.extend_from_slice(&o.unwrap_or([0.0; 3]));
+        let p = &self.perturbation;
+        f.extend(p.command_offset.iter().chain(&p.gravity_offset).chain(p.foot_force.iter().flatten()));
+        f.extend_from_slice(&p.torso_force_local);
+        f.extend_from_slice(&self.last_action);
+        f.extend_from_slice(&self.air_time);
+        f.extend_from_slice(&self.contact_time);
+        u.extend([self.step_count as u64, self.next_resample as u64, self.next_push as u64, o.is_some() as u64]);
+        u.extend(self.last_contact.map(|c| c as u64));
+        u.push(self.experience_steps);
+        task::save_rng(&self.rng, u);
+        if let Some(s) = &self.sim2sim {
+            s.save(f, u);
+        }
+    }
+
+    /// Restores what `save_snapshot` wrote; returns how many f64 and u64 values it read.
+    pub(super) fn load_snapshot(&mut self, f: &[f64], u: &[u64]) -> Result<(usize, usize)> {
+        let mut fi = 0;
+        let mut take = |n: usize| -> Result<&[f64]> {
+            let s = f.get(fi..fi + n).ok_or_else(|| EnvError::Shape("env snapshot too short".into()))?;
+            fi += n;
+            Ok(s)
+        };
+        let (nq, nv, na, nu) = {
+            let m = self.data.model();
+            (m.nq(), m.nv(), m.na(), m.nu())
+        };
+        let (nbody, ngeom) = (self.nominal.body_mass.len(), self.nominal.geom_friction.len());
+        self.data.qpos_mut().copy_from_slice(take(nq)?);
+        self.data.qvel_mut().copy_from_slice(take(nv)?);
+        self.data.act_mut().copy_from_slice(take(na)?);
+        self.data.ctrl_mut().copy_from_slice(take(nu)?);
+        self.data.qacc_warmstart_mut().copy_from_slice(take(nv)?);
+        let t = take(1)?[0];
+        self.data.set_time(t);
+        let mass = take(nbody)?.to_vec();
+        let inertia = take(3 * nbody)?.to_vec();
+        let friction = take(ngeom)?.to_vec();
+        if mass != self.data.model().body_mass()
+            || friction.iter().zip(self.data.model().geom_friction()).any(|(a, g)| *a != g[0])
+        {
+            let m = self.data.model_mut();
+            m.body_mass_mut().copy_from_slice(&mass);
+            for (b, c) in m.body_inertia_mut().iter_mut().zip(inertia.chunks_exact(3)) {
+                *b = [c[0], c[1], c[2]];
+            }
+            for (g, v) in m.geom_friction_mut().iter_mut().zip(&friction) {
+                g[0] = *v;
+            }
+            // set_const resets the Data to qpos0; restore the state afterwards.
+            let state: Vec<Vec<f64>> =
+                [self.data.qpos(), self.data.qvel(), self.data.act(), self.data.ctrl(), self.data.qacc_warmstart()]
+                    .iter()
+                    .map(|a| a.to_vec())
+                    .collect();
+            self.data.set_const()?;
+            self.data.qpos_mut().copy_from_slice(&state[0]);
+            self.data.qvel_mut().copy_from_slice(&state[1]);
+            self.data.act_mut().copy_from_slice(&state[2]);
+            self.data.ctrl_mut().copy_from_slice(&state[3]);
+            self.data.qacc_warmstart_mut().copy_from_slice(&state[4]);
+            self.data.set_time(t);
+        }
+        let arr3 = |s: &[f64]| [s[0], s[1], s[2]];
+        self.command = arr3(take(3)?);
+        let over = arr3(take(3)?);
+        let p = take(12)?.to_vec();
+        let torso = arr3(take(3)?);
+        self.perturbation = Perturbation {
+            command_offset: arr3(&p[0..3]),
+            gravity_offset: arr3(&p[3..6]),
+            foot_force: [arr3(&p[6..9]), arr3(&p[9..12])],
+            torso_force_local: torso,
+        };
+        self.last_action.copy_from_slice(take(N_MOTORS)?);
+        self.air_time.copy_from_slice(take(2)?);
+        self.contact_time.copy_from_slice(take(2)?);
+        let need = 7 + task::RNG_WORDS;
+        let w = u.get(..need).ok_or_else(|| EnvError::Shape("env snapshot too short".into()))?;
+        self.step_count = w[0] as usize;
+        self.next_resample = w[1] as usize;
+        self.next_push = w[2] as usize;
+        self.command_override = (w[3] != 0).then_some(over);
+        self.last_contact = [w[4] != 0, w[5] != 0];
+        self.experience_steps = w[6];
+        self.rng = task::load_rng(&w[7..]);
+        let (mut fi, mut need) = (fi, need);
+        if let Some(s) = &mut self.sim2sim {
+            let (a, b) = s.load(f.get(fi..).unwrap_or(&[]), u.get(need..).unwrap_or(&[]))?;
+            fi += a;
+            need += b;
+        }
+        // Derived quantities (contacts, velocities) for the observation and the next reward.
+        self.data.forward()?;
+        self.robot_state = state::read(&self.data, &self.idx);
+        Ok((fi, need))
+    }
+}
