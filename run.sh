@@ -6,10 +6,11 @@ set -euo pipefail
 cd "$(dirname "$0")"
 . scripts/setup.sh
 cargo build --release --quiet
+topa="${CARGO_TARGET_DIR:-target}/release/topa"   # where cargo put it, also with a custom target folder
 p=assets/policies
 if [ -f $p/O.json ] && [ -f $p/C.json ] && [ -f $p/CA.json ]; then
-  exec ./target/release/topa ablate --o $p/O.json --c $p/C.json --ca $p/CA.json --out out/ablation "$@"
+  exec "$topa" ablate --o $p/O.json --c $p/C.json --ca $p/CA.json --out out/ablation "$@"
 fi
 echo "no bundled policies yet: showing the two robot models instead" >&2
-./target/release/topa info assets/mjcf/topa_closed.xml
-./target/release/topa info assets/mjcf/topa_open.xml
+"$topa" info assets/mjcf/topa_closed.xml
+"$topa" info assets/mjcf/topa_open.xml
