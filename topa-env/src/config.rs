@@ -105,6 +105,13 @@ pub struct RewardConfig {
     pub motor_torque_limits: f64,
     pub feet_slip: f64,
     pub feet_air_time: f64,
+    /// Ours, not in the paper (0 there): exp(−Σ_f max(0, h* − h_f)²·tanh(2‖v_f‖)/σ), feet moving over the ground
+    /// below the clearance target h* cost, feet at rest or above it do not.
+    pub feet_clearance: f64,
+    /// h*, the sole height a moving foot should reach, m.
+    pub clearance_target: f64,
+    /// σ of the feet-clearance kernel, m².
+    pub sigma_clearance: f64,
     /// σ_v of the linear tracking kernel, (m/s)².
     pub sigma_v: f64,
     /// σ_ω of the yaw-rate tracking kernel, (rad/s)².
@@ -170,6 +177,9 @@ impl Default for RewardConfig {
             motor_torque_limits: -1e-3,
             feet_slip: -1.0,
             feet_air_time: 0.5,
+            feet_clearance: 0.0,
+            clearance_target: 0.06,
+            sigma_clearance: 0.0025,
             sigma_v: 0.25,
             sigma_w: 0.25,
             sigma_g: 0.05,

@@ -1,10 +1,10 @@
-//! The paper's 14 reward terms (Table "Rewards"), computed from a plain snapshot of the state so that each term
-//! can be checked on hand-made states.
+//! The paper's 14 reward terms (Table "Rewards") and one of ours (feet clearance, weight 0 in the paper's
+//! table), computed from a plain snapshot of the state so that each term can be checked on hand-made states.
 
 use crate::config::{AirTimeForm, RewardConfig};
 use crate::robot::{ANKLE, HIP_ROLL, HIP_YAW, N_LEG, N_MOTORS};
 
-pub const N_TERMS: usize = 14;
+pub const N_TERMS: usize = 15;
 
 /// Term names, in the paper's table order (also the order of logs and CSV columns).
 pub const TERM_NAMES: [&str; N_TERMS] = [
@@ -22,6 +22,7 @@ pub const TERM_NAMES: [&str; N_TERMS] = [
     "motor_torque_limits",
     "feet_slip",
     "feet_air_time",
+    "feet_clearance",
 ];
 
 /// What the rewards look at, all in SI units; velocities in the robot (torso) frame.
@@ -55,6 +56,8 @@ pub struct RewardInputs {
     pub air_time: [f64; 2],
     /// Time each foot has been in its current mode (in contact, or in the air), s.
     pub mode_time: [f64; 2],
+    /// Height of each sole's centre above the ground, m (0 when standing on flat ground).
+    pub foot_height: [f64; 2],
 }
 
 fn sq(x: f64) -> f64 {
@@ -97,6 +100,10 @@ pub fn raw_terms(c: &RewardConfig, x: &RewardInputs) -> [f64; N_TERMS] {
         }
         _ => (0..2).filter(|&f| x.touchdown[f]).map(|f| air_term(x.air_time[f])).sum(),
     };
+    // A foot that moves over the ground below the target height is a shuffle; weighting by tanh(2‖v‖) leaves a
+    // foot at rest (stance) free, as IsaacLab's foot-clearance reward does.
+    let low: f64 =
+        (0..2).map(|f| sq((c.clearance_target - x.foot_height[f]).max(0.0)) * (2.0 * x.foot_speed[f]).tanh()).sum();
     [
         kernel(sq(x.command[0] - x.lin_vel[0]) + sq(x.command[1] - x.lin_vel[1]), c.sigma_v),
         kernel(sq(x.command[2] - x.ang_vel[2]), c.sigma_w),
@@ -112,6 +119,7 @@ pub fn raw_terms(c: &RewardConfig, x: &RewardInputs) -> [f64; N_TERMS] {
         torque,
         slip,
         air,
+        kernel(low, c.sigma_clearance),
     ]
 }
 
@@ -132,6 +140,7 @@ pub fn weights(c: &RewardConfig) -> [f64; N_TERMS] {
         c.motor_torque_limits,
         c.feet_slip,
         c.feet_air_time,
+        c.feet_clearance,
     ]
 }
 
@@ -175,7 +184,7 @@ mod tests {
         let total = weighted_terms(&c, &upright_perfect(), 1.0, &mut out);
         let w = weights(&c);
         for i in 0..N_TERMS {
-            let expected = if ["feet_air_time"].contains(&TERM_NAMES[i]) || w[i] < 0.0 { 0.0 } else { w[i] };
+            let expected = if ["feet_air_time"].contains(&TERM_NAMES[i]) || w[i] <= 0.0 { 0.0 } else { w[i] };
             assert!((out[i] - expected).abs() < 1e-12, "{}: {} vs {expected}", TERM_NAMES[i], out[i]);
         }
         assert!((total - (3.0 + 1.5 + 1.0 + 1.0 + 0.5 * 3.0)).abs() < 1e-12);
@@ -202,6 +211,8 @@ mod tests {
         x.foot_contact = [true, false];
         x.touchdown = [false, true];
         x.air_time = [0.0, 0.2];
+        x.foot_height = [0.0, 0.01];
+        let c = RewardConfig { clearance_target: 0.05, ..c };
         let r = raw_terms(&c, &x);
         let e = |a: f64, b: f64| assert!((a - b).abs() < 1e-12, "{a} vs {b}");
         e(r[0], (-(0.3f64.powi(2) + 0.3f64.powi(2)) / c.sigma_v).exp());
@@ -218,6 +229,13 @@ mod tests {
         e(r[11], 4.0);
         e(r[12], 0.3);
         e(r[13], 0.3);
+        // Left foot: on the ground, sliding at 0.3 m/s; right foot: 1 cm up, moving at 0.7 m/s.
+        let low = 0.05f64.powi(2) * 0.6f64.tanh() + 0.04f64.powi(2) * 1.4f64.tanh();
+        e(r[14], (-low / c.sigma_clearance).exp());
+        let mut high = x.clone();
+        high.foot_height = [0.0, 0.08];
+        high.foot_speed = [0.0, 0.7];
+        e(raw_terms(&c, &high)[14], 1.0);
         let form = |f| RewardConfig { air_time_form: f, ..c.clone() };
         e(raw_terms(&form(AirTimeForm::Signed), &x)[13], -0.3);
         e(raw_terms(&form(AirTimeForm::NegAbs), &x)[13], -0.3);

@@ -454,6 +454,7 @@ impl Task for TopaEnv {
             touchdown,
             air_time: air_at_touchdown,
             mode_time: std::array::from_fn(|f| if contact[f] { self.contact_time[f] } else { self.air_time[f] }),
+            foot_height: self.idx.foot_sites.map(|site| self.data.site_xpos()[site][2]),
         };
         let scale = if self.cfg.rewards.scale_by_dt { dt } else { 1.0 };
         let reward = rewards::weighted_terms(&self.cfg.rewards, &inputs, scale, &mut self.terms);

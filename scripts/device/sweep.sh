@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Starts one training per "NAME=CONFIG[:SEED]" argument, each in its own process session (so that it outlives the
+# command that started it) with THREADS threads, run folders under RUNS. Used for lever sweeps on the 16-core
+# machine (with the bundle of bundle.sh) and for seed trainings here. Re-running it resumes every run that has a
+# checkpoint. Environment: RUNS (default runs/sweep), THREADS (default 2), TOPA (default: the bundle's launcher
+# if present, else target/release/topa).
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+runs="${RUNS:-runs/sweep}"
+threads="${THREADS:-2}"
+if [ -z "${TOPA:-}" ]; then
+  if [ -x .device/bundle/run ]; then TOPA=".device/bundle/run topa"; else TOPA="${CARGO_TARGET_DIR:-target}/release/topa"; fi
+fi
+mkdir -p "$runs"
+for spec in "$@"; do
+  name="${spec%%=*}"; rest="${spec#*=}"; cfg="${rest%%:*}"; seed=1
+  [ "$rest" != "$cfg" ] && seed="${rest#*:}"
+  dir="$runs/$name"
+  if [ -e "$dir/checkpoints/latest.json" ]; then
+    args=(train --resume "$dir" --threads "$threads" --quiet)
+  else
+    args=(train --config "$cfg" --seed "$seed" --out "$dir" --threads "$threads" --quiet)
+  fi
+  # shellcheck disable=SC2086
+  setsid nohup $TOPA "${args[@]}" >>"$runs/$name.log" 2>&1 < /dev/null &
+  echo "$name: $TOPA ${args[*]}"
+done
