@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 
 use crate::eval::ablate::{self, Extent};
@@ -194,9 +194,32 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
     Ok(())
 }
 
-pub fn run_ablate(o: Option<PathBuf>, cp: Option<PathBuf>, ca: Option<PathBuf>, full: bool, c: Common) -> Result<()> {
-    let policies: Vec<(String, PathBuf)> =
-        [("O", o), ("C", cp), ("CA", ca)].into_iter().filter_map(|(n, p)| p.map(|p| (n.to_string(), p))).collect();
+/// Policy files of one group: files as given, folders expanded to their `*.json` policies in name order.
+pub fn policy_files(group: &str, paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut found: Vec<PathBuf> = std::fs::read_dir(p)
+                .with_context(|| format!("reading {}", p.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| f.extension().is_some_and(|x| x == "json"))
+                .collect();
+            found.sort();
+            anyhow::ensure!(!found.is_empty(), "--{group} {}: no *.json policy in this folder", p.display());
+            out.extend(found);
+        } else {
+            anyhow::ensure!(p.is_file(), "--{group} {}: no such policy file", p.display());
+            out.push(p.clone());
+        }
+    }
+    Ok(out)
+}
+
+pub fn run_ablate(o: Vec<PathBuf>, cp: Vec<PathBuf>, ca: Vec<PathBuf>, full: bool, c: Common) -> Result<()> {
+    let mut policies: Vec<(String, PathBuf)> = Vec::new();
+    for (name, flag, paths) in [("O", "o", o), ("C", "c", cp), ("CA", "ca", ca)] {
+        policies.extend(policy_files(flag, &paths)?.into_iter().map(|p| (name.to_string(), p)));
+    }
     let extent = if full { Extent::full() } else { Extent::quick() };
     let a = ablate::run(&policies, &c.settings()?, &extent)?;
     ablate::write(&a, &c.out)?;
@@ -209,4 +232,26 @@ pub fn run_ablate(o: Option<PathBuf>, cp: Option<PathBuf>, ca: Option<PathBuf>, 
     println!("{}", ablate::markdown(&a)?);
     println!("results: {} (ablation.md, ablation.json, CSVs, heatmaps.png/svg)", c.out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn policy_folders_expand_to_their_json_files_and_missing_ones_are_named() {
+        let dir = std::env::temp_dir().join(format!("topa-policy-files-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for f in ["seed2.json", "seed1.json", "seed1.safetensors", "README.md"] {
+            std::fs::write(dir.join(f), "").unwrap();
+        }
+        let files = policy_files("c", &[dir.clone()]).unwrap();
+        assert_eq!(files, vec![dir.join("seed1.json"), dir.join("seed2.json")]);
+        let err = policy_files("ca", &[dir.join("nope.json")]).unwrap_err().to_string();
+        assert!(err.contains("--ca") && err.contains("nope.json"), "{err}");
+        let empty = dir.join("empty");
+        std::fs::create_dir_all(&empty).unwrap();
+        assert!(policy_files("o", &[empty]).unwrap_err().to_string().contains("no *.json"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -40,15 +40,16 @@ enum Cmd {
     },
     /// All three experiments for O, C and C+A, with the paper's numbers beside ours and the heatmaps.
     Ablate {
-        /// Policy trained on the open (serial) model.
-        #[arg(long)]
-        o: Option<PathBuf>,
-        /// Policy trained on the closed model.
-        #[arg(long)]
-        c: Option<PathBuf>,
-        /// Policy trained on the closed model with the cyclic adversary.
-        #[arg(long)]
-        ca: Option<PathBuf>,
+        /// Policies trained on the open (serial) model: files, or folders whose *.json policies are all taken
+        /// (several seeds: `--o a.json b.json` or `--o assets/policies/O`).
+        #[arg(long, num_args = 1..)]
+        o: Vec<PathBuf>,
+        /// Policies trained on the closed model (files or folders, as --o).
+        #[arg(long, num_args = 1..)]
+        c: Vec<PathBuf>,
+        /// Policies trained on the closed model with the cyclic adversary (files or folders, as --o).
+        #[arg(long, num_args = 1..)]
+        ca: Vec<PathBuf>,
         /// The paper's full protocol (13 × 13 push grid, 100 noise runs per level) instead of the quick one.
         #[arg(long)]
         full: bool,

@@ -1,11 +1,13 @@
-//! `topa ablate`: the paper's three experiments for O, C and C+A, our numbers beside the paper's, the three push
-//! heatmaps side by side, everything written to an output folder.
+//! `topa ablate`: the paper's three experiments for O, C and C+A — each group one or several policies (seeds) —
+//! and the push test while walking beside the paper's standing one; mean ± sd of every headline number with the
+//! paper's beside (groups.rs), each policy's own numbers, the groups' mean heatmaps, all written to a folder.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{ensure, Result};
 use serde::Serialize;
 
+use super::groups;
 use super::noise::{self, NoiseRow};
 use super::push::{self, PushGrid};
 use super::report::{self, label};
@@ -23,6 +25,8 @@ pub struct Extent {
     pub noise_runs: usize,
     pub noise_seconds: f64,
     pub noise_interval_s: f64,
+    /// The command held in the second push test (the paper does not say whether its robot stood or walked).
+    pub walking_push_command: [f64; 3],
 }
 
 impl Extent {
@@ -37,6 +41,7 @@ impl Extent {
             noise_runs: 100,
             noise_seconds: 20.0,
             noise_interval_s: 0.5,
+            walking_push_command: [0.5, 0.0, 0.0],
         }
     }
     /// A quick look (a few minutes for three policies on 2 cores): 7 × 7 push grid (10 N steps), 20 noise runs
@@ -48,11 +53,15 @@ impl Extent {
 
 #[derive(Debug, Clone, Serialize)]
 pub struct PolicyResults {
+    /// The group: O, C or CA.
     pub name: String,
     pub policy: PathBuf,
     pub trained_on: String,
     pub tracking: Vec<TrackingRow>,
+    /// The paper's push test: standing (command 0).
     pub push: PushGrid,
+    /// The same grid while walking at `Extent::walking_push_command`.
+    pub push_walking: Option<PushGrid>,
     pub noise: Vec<NoiseRow>,
 }
 
@@ -63,9 +72,9 @@ pub struct Ablation {
     pub results: Vec<PolicyResults>,
 }
 
-/// Runs every experiment for each (name, policy file).
+/// Runs every experiment for each (group, policy file).
 pub fn run(policies: &[(String, PathBuf)], settings: &EvalSettings, extent: &Extent) -> Result<Ablation> {
-    ensure!(!policies.is_empty(), "give at least one of --o, --c, --ca");
+    ensure!(!policies.is_empty(), "give at least one policy with --o, --c or --ca");
     let mut results = Vec::new();
     for (name, path) in policies {
         let mut runner = PolicyRunner::load(path, label(name))?;
@@ -73,6 +82,8 @@ pub fn run(policies: &[(String, PathBuf)], settings: &EvalSettings, extent: &Ext
         let tracking = tracking::run(&mut runner, settings, extent.tracking_window_s, extent.tracking_transient_s)?;
         let push =
             push::run(&mut runner, settings, extent.push_range_n, extent.push_step_n, extent.push_window_s, [0.0; 3])?;
+        let (range, step, window) = (extent.push_range_n, extent.push_step_n, extent.push_window_s);
+        let walking = push::run(&mut runner, settings, range, step, window, extent.walking_push_command)?;
         let noise =
             noise::run(&mut runner, settings, extent.noise_runs, extent.noise_seconds, extent.noise_interval_s)?;
         results.push(PolicyResults {
@@ -81,37 +92,81 @@ pub fn run(policies: &[(String, PathBuf)], settings: &EvalSettings, extent: &Ext
             trained_on: runner.trained_on().name().into(),
             tracking,
             push,
+            push_walking: Some(walking),
             noise,
         });
     }
     Ok(Ablation { settings: settings.clone(), extent: extent.clone(), results })
 }
 
-/// The three Markdown tables with the paper's numbers beside ours.
+/// The Markdown report: the groups' headline numbers, tracking, gait, and every policy's own row.
 pub fn markdown(a: &Ablation) -> Result<String> {
     let paper = report::paper()?;
-    let tr: Vec<(&str, &[TrackingRow])> = a.results.iter().map(|r| (r.name.as_str(), r.tracking.as_slice())).collect();
-    let pu: Vec<(&str, &PushGrid)> = a.results.iter().map(|r| (r.name.as_str(), &r.push)).collect();
-    let no: Vec<(&str, &[NoiseRow])> = a.results.iter().map(|r| (r.name.as_str(), r.noise.as_slice())).collect();
+    let g = groups::group(&a.results);
     Ok(format!(
-        "## Commanded velocity tracking\n{}\n## Gait\n\n{}\n## Time to fall under a constant torso force\n\n{}\n## Command noise\n\n{}",
-        report::tracking_markdown(&tr, Some(&paper)),
-        report::gait_markdown(&tr),
-        report::push_markdown(&pu, Some(&paper)),
-        report::noise_markdown(&no, Some(&paper)),
+        "## Headline numbers\n\n{}\n## Commanded velocity tracking\n{}\n## Gait\n\n{}\n## Each policy\n\n{}",
+        groups::headline_markdown(&g, &paper),
+        groups::tracking_markdown(&g, &paper),
+        groups::gait_markdown(&g),
+        groups::per_policy_markdown(&a.results),
     ))
 }
 
-/// Writes ablation.{md,json}, per-policy CSVs, and the heatmaps into `out`.
+/// Writes ablation.{md,json}, per-policy CSVs, and each group's mean heatmaps (standing and walking) into `out`.
 pub fn write(a: &Ablation, out: &Path) -> Result<()> {
     std::fs::create_dir_all(out)?;
     report::write_text(out, "ablation.md", &markdown(a)?)?;
     report::write_json(out, "ablation.json", a)?;
+    let mut seen: Vec<(String, usize)> = Vec::new();
     for r in &a.results {
-        report::write_text(out, &format!("{}_tracking.csv", r.name), &report::tracking_csv(&r.tracking))?;
-        report::write_text(out, &format!("{}_push.csv", r.name), &report::push_csv(&r.push))?;
-        report::write_text(out, &format!("{}_noise.csv", r.name), &report::noise_csv(&r.noise))?;
+        // The k-th policy of a group is NAME_k (NAME alone for the first), so that seeds never overwrite each other.
+        let k = match seen.iter_mut().find(|(n, _)| *n == r.name) {
+            Some((_, k)) => {
+                *k += 1;
+                *k
+            }
+            None => {
+                seen.push((r.name.clone(), 1));
+                1
+            }
+        };
+        let stem = if k == 1 { r.name.clone() } else { format!("{}_{k}", r.name) };
+        report::write_text(out, &format!("{stem}_tracking.csv"), &report::tracking_csv(&r.tracking))?;
+        report::write_text(out, &format!("{stem}_push.csv"), &report::push_csv(&r.push))?;
+        if let Some(w) = &r.push_walking {
+            report::write_text(out, &format!("{stem}_push_walking.csv"), &report::push_csv(w))?;
+        }
+        report::write_text(out, &format!("{stem}_noise.csv"), &report::noise_csv(&r.noise))?;
     }
-    let grids: Vec<(String, &PushGrid)> = a.results.iter().map(|r| (label(&r.name).to_string(), &r.push)).collect();
-    crate::plots::push_heatmaps(&grids, &out.join("heatmaps.png"), &out.join("heatmaps.svg"))
+    let g = groups::group(&a.results);
+    let mean = |walking: bool| -> Vec<(String, PushGrid)> {
+        g.iter()
+            .filter_map(|grp| {
+                let grids =
+                    grp.members.iter().filter_map(|r| if walking { r.push_walking.as_ref() } else { Some(&r.push) });
+                let n = grp.members.len();
+                let mut title = label(grp.name).to_string();
+                if walking {
+                    let c = a.extent.walking_push_command;
+                    title += &format!(
+                        ", walking {}",
+                        if c[1] == 0.0 && c[2] == 0.0 { format!("{} m/s", c[0]) } else { format!("{c:?}") }
+                    );
+                }
+                if n > 1 {
+                    title += &format!(" (mean of {n})");
+                }
+                groups::mean_grid(grids).map(|m| (title, m))
+            })
+            .collect()
+    };
+    for (walking, stem) in [(false, "heatmaps"), (true, "heatmaps_walking")] {
+        let grids = mean(walking);
+        if grids.is_empty() {
+            continue;
+        }
+        let refs: Vec<(String, &PushGrid)> = grids.iter().map(|(n, g)| (n.clone(), g)).collect();
+        crate::plots::push_heatmaps(&refs, &out.join(format!("{stem}.png")), &out.join(format!("{stem}.svg")))?;
+    }
+    Ok(())
 }

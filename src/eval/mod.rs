@@ -5,6 +5,7 @@
 
 pub mod ablate;
 pub mod gait;
+pub mod groups;
 pub mod noise;
 pub mod push;
 pub mod report;

@@ -1,0 +1,270 @@
+//! Several policies per group (the seeds of O, C, C+A): every headline number as mean ± sd over the group's
+//! policies, with the paper's value beside, and a per-policy table so that no seed hides behind a mean.
+
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use super::ablate::PolicyResults;
+use super::push::PushGrid;
+use super::report::{label, PaperTables};
+use super::tracking::COMMANDS;
+
+/// Mean and sample standard deviation (n − 1) of the finite values among `xs` (a policy that never steps has no
+/// air time: it is left out of that mean, not counted as 0); sd is 0 for a single value.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct Stat {
+    pub mean: f64,
+    pub sd: f64,
+    pub n: usize,
+}
+
+impl Stat {
+    pub fn of(xs: &[f64]) -> Stat {
+        let xs: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
+        let n = xs.len();
+        if n == 0 {
+            return Stat { mean: f64::NAN, sd: f64::NAN, n };
+        }
+        let mean = xs.iter().sum::<f64>() / n as f64;
+        let sd = if n > 1 { (xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt() } else { 0.0 };
+        Stat { mean, sd, n }
+    }
+
+    /// "m ± sd" with `digits` decimals ("m" alone for one value).
+    pub fn show(&self, digits: usize) -> String {
+        if !self.mean.is_finite() {
+            "–".into()
+        } else if self.n > 1 {
+            format!("{:.digits$} ± {:.digits$}", self.mean, self.sd)
+        } else {
+            format!("{:.digits$}", self.mean)
+        }
+    }
+}
+
+/// One group's policies, in the order they were given.
+pub struct Group<'a> {
+    pub name: &'a str,
+    pub members: Vec<&'a PolicyResults>,
+}
+
+/// Groups in first-appearance order of their names.
+pub fn group(results: &[PolicyResults]) -> Vec<Group<'_>> {
+    let mut out: Vec<Group> = Vec::new();
+    for r in results {
+        match out.iter_mut().find(|g| g.name == r.name) {
+            Some(g) => g.members.push(r),
+            None => out.push(Group { name: &r.name, members: vec![r] }),
+        }
+    }
+    out
+}
+
+impl Group<'_> {
+    fn stat(&self, f: impl Fn(&PolicyResults) -> f64) -> Stat {
+        Stat::of(&self.members.iter().map(|r| f(r)).collect::<Vec<_>>())
+    }
+    pub fn t_fall_standing(&self) -> Stat {
+        self.stat(|r| r.push.mean_t_fall())
+    }
+    pub fn t_fall_walking(&self) -> Stat {
+        self.stat(|r| r.push_walking.as_ref().map_or(f64::NAN, PushGrid::mean_t_fall))
+    }
+    pub fn noise(&self, level: usize) -> Stat {
+        self.stat(|r| r.noise.get(level).map_or(f64::NAN, |n| n.success_pct))
+    }
+    /// Tracking falls over all commands and policies of the group.
+    pub fn tracking_falls(&self) -> usize {
+        self.members.iter().map(|r| r.tracking.iter().filter(|t| t.fell).count()).sum()
+    }
+    /// The largest per-component whole-window MAE of any command, per policy.
+    pub fn worst_component(&self) -> Stat {
+        self.stat(worst_component)
+    }
+}
+
+fn worst_component(r: &PolicyResults) -> f64 {
+    r.tracking.iter().flat_map(|t| t.mae_whole).fold(0.0, f64::max)
+}
+
+fn paper_cell(ours: String, paper: Option<String>) -> String {
+    match paper {
+        Some(p) => format!("{ours} ({p})"),
+        None => ours,
+    }
+}
+
+/// The headline table: push (standing, walking), command noise, tracking falls, worst tracking component.
+pub fn headline_markdown(groups: &[Group], paper: &PaperTables) -> String {
+    let levels = groups.iter().flat_map(|g| g.members.iter().map(|r| r.noise.len())).max().unwrap_or(0);
+    let mut s = String::from("| Group | policies | mean t_fall standing (s) | mean t_fall walking v_x = 0.5 (s) |");
+    for i in 0..levels {
+        let _ = write!(s, " noise level {} success (%) |", i + 1);
+    }
+    s.push_str(" tracking falls | worst component MAE |\n|---|---:|---:|---:|");
+    s.push_str(&"---:|".repeat(levels + 2));
+    s.push('\n');
+    for g in groups {
+        let p = paper.push_mean_t_fall.get(g.name).map(|x| format!("{x:.2}"));
+        let _ = write!(
+            s,
+            "| {} | {} | {} | {} |",
+            label(g.name),
+            g.members.len(),
+            paper_cell(g.t_fall_standing().show(2), p),
+            g.t_fall_walking().show(2)
+        );
+        for i in 0..levels {
+            let p = paper.noise_success.get(g.name).and_then(|v| v.get(i)).map(|x| format!("{x:.0}"));
+            let _ = write!(s, " {} |", paper_cell(g.noise(i).show(0), p));
+        }
+        let cmds = g.members.iter().map(|r| r.tracking.len()).sum::<usize>();
+        let _ = writeln!(s, " {}/{} | {} |", g.tracking_falls(), cmds, g.worst_component().show(3));
+    }
+    let _ = writeln!(
+        s,
+        "\nmean ± sd over each group's policies (sample sd); cells: ours (paper). Tracking falls: runs of the six \
+         commands that fell, over all the group's policies; worst component MAE: the largest of the three \
+         per-component errors (whole window) over the six commands, per policy."
+    );
+    s
+}
+
+/// Tracking per command and group: per-component MAE, their sum (the paper's column), falls, τ̄, roll, pitch.
+pub fn tracking_markdown(groups: &[Group], paper: &PaperTables) -> String {
+    let mut s = String::new();
+    for (ci, (key, title, _)) in COMMANDS.iter().enumerate() {
+        let _ = writeln!(s, "\n**{title}**\n");
+        s.push_str(
+            "| Group | MAE v_x | MAE v_y | MAE w_z | MAE sum | falls | τ̄ (N·m) | θ̄_roll (rad) | θ̄_pitch (rad) |\n\
+             |---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        );
+        for g in groups {
+            let row = |f: &dyn Fn(&super::tracking::TrackingRow) -> f64| g.stat(|r| f(&r.tracking[ci]));
+            let p = paper.tracking.get(*key).and_then(|m| m.get(g.name));
+            let pf =
+                |i: usize, d: usize| p.map(|p| format!("{:.d$}{}", p[i], if i == 0 && p[4] > 0.5 { "*" } else { "" }));
+            let falls = g.members.iter().filter(|r| r.tracking[ci].fell).count();
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {falls}/{} | {} | {} | {} |",
+                label(g.name),
+                row(&|t| t.mae_whole[0]).show(3),
+                row(&|t| t.mae_whole[1]).show(3),
+                row(&|t| t.mae_whole[2]).show(3),
+                paper_cell(row(&|t| t.mae_paper).show(2), pf(0, 2)),
+                g.members.len(),
+                paper_cell(row(&|t| t.mean_torque).show(1), pf(1, 2)),
+                paper_cell(row(&|t| t.mean_roll).show(2), pf(2, 2)),
+                paper_cell(row(&|t| t.mean_pitch).show(2), pf(3, 2)),
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\nWhole window from the command's start, continuing after a fall (the paper-comparable definition); MAE \
+         sum = |v_x| + |v_y| + |w_z| errors, the paper's column (* there: fell). mean ± sd over the group."
+    );
+    s
+}
+
+/// The gait of each group on each command, mean ± sd over its policies.
+pub fn gait_markdown(groups: &[Group]) -> String {
+    let mut s = String::from(
+        "| Group | command | steps/s per foot | air time (s) | clearance (cm) | slip (cm per stance) | double support | base height (m) |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for g in groups {
+        for (ci, (key, _, _)) in COMMANDS.iter().enumerate() {
+            let st = |f: &dyn Fn(&super::gait::GaitStats) -> f64| g.stat(|r| f(&r.tracking[ci].gait));
+            let _ = writeln!(
+                s,
+                "| {} | {key} | {} | {} | {} | {} | {} | {} |",
+                label(g.name),
+                st(&|x| x.steps_per_s).show(2),
+                st(&|x| x.air_time_s).show(3),
+                st(&|x| 100.0 * x.clearance_m).show(1),
+                st(&|x| 100.0 * x.slip_per_stance_m).show(2),
+                st(&|x| x.double_support).show(2),
+                st(&|x| x.base_height_m).show(3),
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\nAfter the first 2 s of each command, up to a fall; mean ± sd over the group (a policy that never steps \
+         has no air time or clearance and is left out of those two means)."
+    );
+    s
+}
+
+/// Every policy's headline numbers, one row each.
+pub fn per_policy_markdown(results: &[PolicyResults]) -> String {
+    let mut s = String::from(
+        "| Group | policy | t_fall standing (s) | t_fall walking (s) | noise success (%) | tracking falls | worst component MAE | gait at 0.5 m/s: steps/s, air (s), clearance (cm) |\n\
+         |---|---|---:|---:|---|---:|---:|---|\n",
+    );
+    for r in results {
+        let noise: Vec<String> = r.noise.iter().map(|n| format!("{:.0}", n.success_pct)).collect();
+        let fwd = r.tracking.iter().find(|t| t.key == "walk_forward").map(|t| &t.gait);
+        let gait = fwd.map_or("–".into(), |g| {
+            format!("{:.2}, {:.3}, {:.1}", g.steps_per_s, g.air_time_s, 100.0 * g.clearance_m)
+        });
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.2} | {} | {} | {}/{} | {:.3} | {gait} |",
+            label(&r.name),
+            r.policy.display(),
+            r.push.mean_t_fall(),
+            r.push_walking.as_ref().map_or("–".into(), |p| format!("{:.2}", p.mean_t_fall())),
+            noise.join(" / "),
+            r.tracking.iter().filter(|t| t.fell).count(),
+            r.tracking.len(),
+            worst_component(r),
+        );
+    }
+    s
+}
+
+/// The cell-wise mean of a group's push grids (for one heatmap per group).
+pub fn mean_grid<'a>(grids: impl Iterator<Item = &'a PushGrid>) -> Option<PushGrid> {
+    let grids: Vec<&PushGrid> = grids.collect();
+    let first = *grids.first()?;
+    let mut t = vec![0.0; first.t_fall.len()];
+    for g in &grids {
+        if g.axis != first.axis {
+            return None;
+        }
+        for (a, b) in t.iter_mut().zip(&g.t_fall) {
+            *a += b / grids.len() as f64;
+        }
+    }
+    Some(PushGrid { t_fall: t, ..first.clone() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stat_is_the_mean_and_sample_sd() {
+        let s = Stat::of(&[2.0, 4.0, 4.0, 4.0, 5.0, 5.0, 7.0, 9.0]);
+        assert!((s.mean - 5.0).abs() < 1e-12);
+        assert!((s.sd - (32.0f64 / 7.0).sqrt()).abs() < 1e-12);
+        assert_eq!(s.show(1), "5.0 ± 2.1");
+        assert_eq!(Stat::of(&[3.0]).show(2), "3.00");
+        assert_eq!(Stat::of(&[]).show(2), "–");
+        assert_eq!(Stat::of(&[f64::NAN, 1.0, 3.0]), Stat { mean: 2.0, sd: 2f64.sqrt(), n: 2 });
+    }
+
+    #[test]
+    fn mean_grid_averages_cells_and_refuses_other_axes() {
+        let g = |t: Vec<f64>, axis: Vec<f64>| PushGrid { axis, t_fall: t, window_s: 10.0, command: [0.0; 3] };
+        let a = g(vec![10.0, 2.0, 4.0, 6.0], vec![-1.0, 1.0]);
+        let b = g(vec![0.0, 4.0, 4.0, 10.0], vec![-1.0, 1.0]);
+        assert_eq!(mean_grid([&a, &b].into_iter()).unwrap().t_fall, vec![5.0, 3.0, 4.0, 8.0]);
+        let c = g(vec![0.0; 4], vec![-2.0, 2.0]);
+        assert!(mean_grid([&a, &c].into_iter()).is_none());
+    }
+}
