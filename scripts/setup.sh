@@ -20,7 +20,8 @@ if [ "${TOPA_MPI:-0}" = 1 ]; then
   command -v mpirun >/dev/null 2>&1 || need_pkgs+=(openmpi-bin)
   [ -e /usr/lib/x86_64-linux-gnu/openmpi/include/mpi.h ] || [ -e /usr/include/x86_64-linux-gnu/mpi/mpi.h ] ||
     [ -e /usr/lib/aarch64-linux-gnu/openmpi/include/mpi.h ] || need_pkgs+=(libopenmpi-dev)
-  ldconfig -p 2>/dev/null | grep -q 'libclang' || need_pkgs+=(libclang-dev)
+  # libclang itself (libclang-cpp, which other packages bring, is not what bindgen loads).
+  ldconfig -p 2>/dev/null | grep -qE 'libclang(-[0-9.]+)?\.so' || need_pkgs+=(libclang-dev)
 fi
 if [ ${#need_pkgs[@]} -gt 0 ]; then
   echo "setup: installing ${need_pkgs[*]} (apt-get)" >&2

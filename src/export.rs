@@ -122,7 +122,8 @@ pub fn build(policy: &Policy, source: &str, motor_targets: bool) -> Result<pb::M
         m.obs_dim,
         m.action_dim
     );
-    let kind = m.model.with_context(|| format!("{source}: the policy does not say which model it was trained on"))?;
+    let kind =
+        ModelKind::of_policy(m.robot.as_deref(), m.model.as_deref()).map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
     let (mut nodes, mut inits) = (Vec::new(), Vec::new());
     let mut x = INPUT.to_string();
     if kind == ModelKind::Open {

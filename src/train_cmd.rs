@@ -7,10 +7,9 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use topa_env::{assets, ModelKind, VecEnv};
+use topa_env::{assets, EnvConfig, ModelKind, TaskKind, VecEnv};
 use trainer::checkpoint;
 use trainer::comm::{Comm, Single};
-use trainer::config::TaskKind;
 use trainer::metrics::MetricsWriter;
 use trainer::policy_file::{self, PolicyMeta, Provenance};
 use trainer::{IterationLog, TrainConfig, Trainer};
@@ -28,9 +27,17 @@ pub struct TrainArgs {
     pub quiet: bool,
 }
 
+/// A training config file with its `[env]` table checked by the task: every problem names the file and the key.
+pub fn load_config(path: &Path) -> Result<(TrainConfig, EnvConfig)> {
+    let cfg = TrainConfig::load(path)?;
+    let env = EnvConfig::from_table(&cfg.env).with_context(|| format!("config {}", path.display()))?;
+    Ok((cfg, env))
+}
+
 /// The TopA batch for a config (the env crate checks the model against the spec).
 pub fn topa_env(cfg: &TrainConfig) -> Result<Box<dyn VecEnv>> {
-    Ok(Box::new(assets::topa_batch(&cfg.env, cfg.run.num_envs, cfg.run.seed, 0)?))
+    let env = EnvConfig::from_table(&cfg.env)?;
+    Ok(Box::new(assets::topa_batch(&env, cfg.run.num_envs, cfg.run.seed, 0)?))
 }
 
 /// This rank's share of the run's envs: `run.num_envs / ranks` of them, env `i` seeded as env
@@ -43,15 +50,17 @@ fn rank_env(cfg: &TrainConfig, comm: &dyn Comm) -> Result<Box<dyn VecEnv>> {
     }
     let share = n / size;
     let first = (rank * share) as u64;
-    Ok(match cfg.run.task {
+    let env = EnvConfig::from_table(&cfg.env)?;
+    Ok(match env.task {
         TaskKind::Topa => {
-            let model = assets::load_model(cfg.env.model)?;
-            Box::new(assets::topa_batch_from(model, &cfg.env, first, share, cfg.run.seed, 0)?)
+            let model = assets::load_model(env.model)?;
+            Box::new(assets::topa_batch_from(model, &env, first, share, cfg.run.seed, 0)?)
         }
         TaskKind::Cartpole => {
             let model = topa_env::tasks::cartpole::model()?;
+            let bound = env.adversary.generic_bound;
             let tasks = (0..share as u64)
-                .map(|i| topa_env::tasks::CartPole::new(model.clone(), cfg.run.seed, first + i, 200))
+                .map(|i| topa_env::tasks::CartPole::new(model.clone(), cfg.run.seed, first + i, 200, bound))
                 .collect::<Result<Vec<_>, _>>()?;
             Box::new(topa_env::BatchEnv::new(tasks, 0)?)
         }
@@ -113,17 +122,19 @@ fn machine() -> String {
 /// Exports the current policy as `<out>/policy.{safetensors,json}`.
 pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> {
     let cfg = &t.cfg;
+    let env = EnvConfig::from_table(&cfg.env)?;
     let meta = PolicyMeta {
         format: policy_file::FORMAT.into(),
         version: policy_file::VERSION,
-        model: Some(cfg.env.model),
+        robot: (env.task == TaskKind::Topa).then(|| env.model.robot_name().to_string()),
+        model: None,
         obs_dim: t.env.obs_dim(),
         action_dim: t.env.action_dim(),
         hidden: cfg.network.actor_hidden.clone(),
         activation: cfg.network.activation.clone(),
-        action_scale: cfg.env.action_scale,
-        action_clip: cfg.env.action_clip,
-        policy_dt: cfg.env.policy_dt(),
+        action_scale: env.action_scale,
+        action_clip: env.action_clip,
+        policy_dt: env.policy_dt(),
         weights: String::new(),
         weights_crc32: 0,
         provenance: Provenance {
@@ -211,9 +222,11 @@ pub fn run(args: TrainArgs) -> Result<()> {
         (t, dir.clone(), command, Some(it))
     } else {
         let path = args.config.as_deref().context("give --config configs/<preset>.toml (or --resume DIR)")?;
-        let mut cfg = TrainConfig::load(path)?;
+        let (mut cfg, _) = load_config(path)?;
         if let Some(m) = args.model {
-            cfg.env.model = m;
+            let mut env = EnvConfig::from_table(&cfg.env)?;
+            env.model = m;
+            cfg.env = env.to_table();
         }
         if let Some(s) = args.seed {
             cfg.run.seed = s;
@@ -225,11 +238,12 @@ pub fn run(args: TrainArgs) -> Result<()> {
             cfg.run.iterations = n;
         }
         cfg.validate().map_err(anyhow::Error::msg)?;
+        let env_cfg = EnvConfig::from_table(&cfg.env)?;
         trainer::nn::init_threads(crate::resolve_threads(cfg.run.threads))?;
         let out = args.out.clone().unwrap_or_else(|| {
             PathBuf::from(format!(
                 "runs/{}{}-seed{}",
-                cfg.env.model.name(),
+                env_cfg.model.name(),
                 if args.adversary { "-adversary" } else { "" },
                 cfg.run.seed
             ))
@@ -262,7 +276,9 @@ pub fn run(args: TrainArgs) -> Result<()> {
 
     let ckpt_dir = out.join("checkpoints");
     // Rank 0 alone writes (metrics, checkpoints, the policy) and reports; the others only train.
-    let mut metrics = if lead { Some(MetricsWriter::open(&out, &trainer.env.term_names(), resumed_at)?) } else { None };
+    let channels: Vec<String> = trainer.env.perturbation_channels().into_iter().map(|c| c.name).collect();
+    let mut metrics =
+        if lead { Some(MetricsWriter::open(&out, &trainer.env.term_names(), &channels, resumed_at)?) } else { None };
     if comm.size() > 1 && lead {
         eprintln!(
             "{} MPI ranks × {} envs; after an interruption: mpirun -np {} topa train --resume {}",

@@ -240,7 +240,7 @@ fn a_model_too_small_for_its_contacts_stops_the_batch_with_the_fix() {
     let model = Arc::new(mujoco_sys::Model::from_xml_string(&small, &dir).unwrap());
     assert_eq!(model.raw().nconmax, 4);
     let mut v = assets::topa_batch_on(model, &quiet(ModelKind::Closed), 2, 1, 1).unwrap();
-    let err = (|| -> topa_env::Result<()> {
+    let err = (|| -> anyhow::Result<()> {
         v.reset()?;
         for _ in 0..50 {
             v.step(&[0.0; 20])?;
@@ -255,7 +255,7 @@ fn a_model_too_small_for_its_contacts_stops_the_batch_with_the_fix() {
 #[test]
 fn cartpole_random_policy_falls_quickly() {
     let model = cartpole::model().unwrap();
-    let tasks = (0..16).map(|i| CartPole::new(model.clone(), 1, i, 200).unwrap()).collect();
+    let tasks = (0..16).map(|i| CartPole::new(model.clone(), 1, i, 200, 1.0).unwrap()).collect();
     let mut v = BatchEnv::new(tasks, 1).unwrap();
     v.reset().unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(1);

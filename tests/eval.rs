@@ -32,18 +32,20 @@ fn constant_policy(dir: &Path, name: &str, model: ModelKind, action: [f32; N_MOT
     }
     mlp.layers[1].bias.set(&Tensor::new(&action, &Device::Cpu).unwrap()).unwrap();
     let mut cfg = TrainConfig::default();
-    cfg.env.model = model;
+    let env = EnvConfig { model, ..EnvConfig::default() };
+    cfg.env = env.to_table();
     let meta = PolicyMeta {
         format: policy_file::FORMAT.into(),
         version: policy_file::VERSION,
-        model: Some(model),
+        robot: Some(model.robot_name().into()),
+        model: None,
         obs_dim: 42,
         action_dim: 10,
         hidden: vec![8],
         activation: "elu".into(),
-        action_scale: cfg.env.action_scale,
-        action_clip: cfg.env.action_clip,
-        policy_dt: cfg.env.policy_dt(),
+        action_scale: env.action_scale,
+        action_clip: env.action_clip,
+        policy_dt: env.policy_dt(),
         weights: String::new(),
         weights_crc32: 0,
         provenance: Provenance {

@@ -9,8 +9,6 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use trainer::config::TaskKind;
-
 const TOPA: &str = env!("CARGO_BIN_EXE_topa");
 
 /// One MPI job at a time: each already runs two ranks on this machine's cores.
@@ -46,7 +44,6 @@ fn run(mut c: Command) -> Output {
 /// The cart-pole set-up of the PPO tests as a config file, with `envs` envs in all.
 fn cartpole_file(dir: &Path, envs: usize, iterations: usize) -> PathBuf {
     let mut cfg = common::cartpole_config(1, iterations);
-    cfg.run.task = TaskKind::Cartpole;
     cfg.run.num_envs = envs;
     cfg.run.checkpoint_every = 5;
     let path = dir.join(format!("cartpole-{envs}.toml"));

@@ -4,6 +4,7 @@
 use candle_core::{Device, Tensor, Var};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use topa::train_cmd::load_config;
 use topa_env::symmetry;
 use trainer::actor_critic::ActorCritic;
 use trainer::config::{LossConfig, PpoConfig, TrainConfig};
@@ -225,32 +226,41 @@ fn unknown_or_invalid_config_keys_are_clear_errors() {
     assert_eq!(err.lines().count(), 1, "{err}");
     let err = TrainConfig::load(&write("bad.toml", "[ppo]\ngamma = 1.5\n")).unwrap_err().to_string();
     assert!(err.contains("ppo.gamma"), "{err}");
-    let err = TrainConfig::load(&write("env.toml", "[env.rewards]\nsigma_v = -1.0\n")).unwrap_err().to_string();
-    assert!(err.contains("sigma_v"), "{err}");
+    let err = format!("{:#}", load_config(&write("env.toml", "[env.rewards]\nsigma_v = -1.0\n")).unwrap_err());
+    assert!(err.contains("sigma_v") && err.contains("env.toml"), "{err}");
+    let err = format!("{:#}", load_config(&write("env2.toml", "[env.rewards]\nsigma_vv = 1.0\n")).unwrap_err());
+    assert!(err.contains("sigma_vv") && err.contains("env2.toml"), "{err}");
     let err = TrainConfig::load(&write("adv.toml", "[adversary]\nattack_share = 1.5\n")).unwrap_err().to_string();
     assert!(err.contains("adversary.attack_share"), "{err}");
-    let ok =
-        TrainConfig::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/paper.toml"))).unwrap();
+    let (ok, ok_env) =
+        load_config(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/paper.toml"))).unwrap();
     assert_eq!(ok.run.num_envs, 4096);
     assert_eq!(ok.ppo.learning_rate, 3e-5);
-    let cpu =
-        TrainConfig::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/cpu.toml"))).unwrap();
-    // The CPU preset keeps the paper's reward weights; only the air-time term's form differs (README, "Training").
-    let mut cpu_rewards = cpu.env.rewards.clone();
-    (cpu_rewards.air_time_form, cpu_rewards.air_time_target) =
-        (ok.env.rewards.air_time_form, ok.env.rewards.air_time_target);
-    assert_eq!(cpu_rewards, ok.env.rewards, "the CPU preset keeps the paper's rewards");
+    let (_, cpu_env) =
+        load_config(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/cpu.toml"))).unwrap();
+    // The CPU preset keeps the paper's reward weights; only the air-time term (its form, target and weight)
+    // differs (README, "Training").
+    let mut cpu_rewards = cpu_env.rewards.clone();
+    let paper = &ok_env.rewards;
+    (cpu_rewards.air_time_form, cpu_rewards.air_time_target, cpu_rewards.feet_air_time) =
+        (paper.air_time_form, paper.air_time_target, paper.feet_air_time);
+    assert_eq!(&cpu_rewards, paper, "the CPU preset keeps the paper's rewards");
     // Every shipped experiment file loads (its `base` chain included) and changes something.
     let experiments = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/experiments"));
     for e in std::fs::read_dir(experiments).unwrap() {
         let path = e.unwrap().path();
-        let c = TrainConfig::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        assert_ne!(toml::to_string(&c).unwrap(), toml::to_string(&cpu).unwrap(), "{}", path.display());
+        let (c, _) = load_config(&path).unwrap_or_else(|e| panic!("{}: {e:#}", path.display()));
+        // Each lever changes something against the file it starts from.
+        let text = std::fs::read_to_string(&path).unwrap();
+        let base: toml::Table = toml::from_str(&text).unwrap();
+        let base = path.parent().unwrap().join(base["base"].as_str().expect("experiment files name their base"));
+        let (b, _) = load_config(&base).unwrap();
+        assert_ne!(toml::to_string(&c).unwrap(), toml::to_string(&b).unwrap(), "{}", path.display());
     }
     // `base`: a file holds only what it changes; tables merge key by key; unknown keys still fail, in either file.
     write("base.toml", "[run]\nnum_envs = 64\nseed = 3\n[env.rewards]\nsigma_v = 0.5\n");
-    let child = TrainConfig::load(&write("child.toml", "base = \"base.toml\"\n[run]\nseed = 9\n")).unwrap();
-    assert_eq!((child.run.num_envs, child.run.seed, child.env.rewards.sigma_v), (64, 9, 0.5));
+    let (child, child_env) = load_config(&write("child.toml", "base = \"base.toml\"\n[run]\nseed = 9\n")).unwrap();
+    assert_eq!((child.run.num_envs, child.run.seed, child_env.rewards.sigma_v), (64, 9, 0.5));
     let err = TrainConfig::load(&write("c2.toml", "base = \"base.toml\"\n[run]\nsede = 9\n")).unwrap_err().to_string();
     assert!(err.contains("sede"), "{err}");
     let err = TrainConfig::load(&write("c3.toml", "base = \"missing.toml\"\n")).unwrap_err().to_string();

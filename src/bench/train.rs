@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
-use trainer::{TrainConfig, Trainer};
+use trainer::Trainer;
 
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct WorkerResult {
@@ -54,15 +54,16 @@ pub struct Args<'a> {
 /// One measurement in this process: `warmup` untimed iterations, then `iterations` timed ones.
 pub fn worker(a: &Args, threads: usize) -> Result<WorkerResult> {
     trainer::nn::init_threads(threads)?;
-    let mut cfg = TrainConfig::load(a.config)?;
+    let (mut cfg, mut env_cfg) = crate::train_cmd::load_config(a.config)?;
     cfg.run.threads = threads;
     if let Some(n) = a.envs {
         cfg.run.num_envs = n;
     }
     if let Some(i) = &a.integrator {
-        cfg.env.integrator = i.clone();
+        env_cfg.integrator = i.clone();
+        cfg.env = env_cfg.to_table();
     }
-    let standing = super::env::physics_steps_per_second(&cfg.env, 2.0)?;
+    let standing = super::env::physics_steps_per_second(&env_cfg, 2.0)?;
     let env = crate::train_cmd::topa_env(&cfg)?;
     let mut t = Trainer::new(cfg.clone(), env, false)?;
     for _ in 0..a.warmup {
@@ -74,7 +75,7 @@ pub fn worker(a: &Args, threads: usize) -> Result<WorkerResult> {
         iterations: a.iterations,
         samples: cfg.run.num_envs * cfg.run.steps_per_env,
         standing_steps_per_s: standing,
-        decimation: cfg.env.decimation,
+        decimation: env_cfg.decimation,
         ..Default::default()
     };
     for _ in 0..a.iterations {
@@ -130,16 +131,16 @@ fn run_worker(a: &Args, threads: usize) -> Result<WorkerResult> {
 }
 
 pub fn run(a: &Args) -> Result<()> {
-    let cfg = TrainConfig::load(a.config)?;
+    let (cfg, env_cfg) = crate::train_cmd::load_config(a.config)?;
     let envs = a.envs.unwrap_or(cfg.run.num_envs);
-    let integ = a.integrator.clone().unwrap_or(cfg.env.integrator.clone());
+    let integ = a.integrator.clone().unwrap_or(env_cfg.integrator.clone());
     println!(
         "{}: {envs} envs × {} steps, integrator {integ}, timestep {} s × {}; {} timed iterations after {} warm-up, \
          best of {} interleaved rounds\n",
         a.config.display(),
         cfg.run.steps_per_env,
-        cfg.env.timestep,
-        cfg.env.decimation,
+        env_cfg.timestep,
+        env_cfg.decimation,
         a.iterations,
         a.warmup,
         a.rounds.max(1)

@@ -101,12 +101,8 @@ impl PolicyRunner {
     pub fn load(path: &Path, name: &str) -> Result<Self> {
         let policy = Policy::load(path)?;
         let m = &policy.meta;
-        let Some(trained_on) = m.model else {
-            bail!(
-                "{}: the policy file does not say which model it was trained on, so it cannot be mapped",
-                path.display()
-            )
-        };
+        let trained_on = ModelKind::of_policy(m.robot.as_deref(), m.model.as_deref())
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         if m.obs_dim != topa_env::env::OBS_DIM || m.action_dim != N_MOTORS {
             bail!(
                 "{}: a {}→{} policy cannot drive TopA (42 observations → 10 motor targets)",
@@ -125,7 +121,7 @@ impl PolicyRunner {
     /// The env config to evaluate this policy with: its training config made deterministic, on the closed
     /// model, at the evaluation timestep and the policy's own control period.
     pub fn eval_config(&self, s: &EvalSettings) -> Result<EnvConfig> {
-        let train = &self.policy.meta.provenance.config.env;
+        let train = EnvConfig::from_table(&self.policy.meta.provenance.config.env)?;
         let mut c = train.for_evaluation();
         c.model = ModelKind::Closed;
         c.integrator = s.integrator.clone();

@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use topa_env::tasks::{cartpole, CartPole};
-use topa_env::BatchEnv;
+use topa_env::{BatchEnv, EnvConfig, TaskKind};
 use trainer::config::TrainConfig;
 use trainer::Trainer;
 
@@ -20,12 +20,22 @@ pub fn cartpole_config(seed: u64, iterations: usize) -> TrainConfig {
     c.network.actor_hidden = vec![32, 32];
     c.network.critic_hidden = vec![32, 32];
     c.losses.decay_coef = 0.0;
+    c.env = EnvConfig { task: TaskKind::Cartpole, ..EnvConfig::default() }.to_table();
     c
+}
+
+/// Sets the bound of the adversary's push on the pole, N.
+pub fn set_push_bound(cfg: &mut TrainConfig, newtons: f64) {
+    let mut env = EnvConfig::from_table(&cfg.env).unwrap();
+    env.adversary.generic_bound = newtons;
+    cfg.env = env.to_table();
 }
 
 pub fn cartpole_trainer(cfg: &TrainConfig, with_adversary: bool) -> Trainer {
     let model = cartpole::model().unwrap();
-    let tasks =
-        (0..cfg.run.num_envs).map(|i| CartPole::new(model.clone(), cfg.run.seed, i as u64, 200).unwrap()).collect();
+    let bound = EnvConfig::from_table(&cfg.env).unwrap().adversary.generic_bound;
+    let tasks = (0..cfg.run.num_envs)
+        .map(|i| CartPole::new(model.clone(), cfg.run.seed, i as u64, 200, bound).unwrap())
+        .collect();
     Trainer::new(cfg.clone(), Box::new(BatchEnv::new(tasks, 1).unwrap()), with_adversary).unwrap()
 }

@@ -10,6 +10,8 @@ use crate::robot::ModelKind;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct EnvConfig {
+    /// What is trained: the robot (default), or the cart-pole (a one-minute check of an install or a cluster).
+    pub task: TaskKind,
     /// Closed chain (the paper's C) or serial approximation (O).
     pub model: ModelKind,
     /// Physics timestep, s (paper: policy 50 Hz; 0.005 × 4 = 20 ms).
@@ -35,11 +37,47 @@ pub struct EnvConfig {
     /// Realistic sim2sim: state estimator, sensor noise, latency, torque–speed limits (default: all off, the
     /// ideal simulator). In training, `[env.sim2sim.estimator] enabled = true` trains on the estimator's output.
     pub sim2sim: crate::sim2sim::Sim2SimConfig,
+    /// How far the cyclic adversary may perturb (its channels' bounds).
+    pub adversary: AdversaryBounds,
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TaskKind {
+    #[default]
+    Topa,
+    Cartpole,
+}
+
+/// Bounds of the adversary's perturbations (ours: the paper publishes none; see assets/policies/README.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AdversaryBounds {
+    /// Largest offset of each commanded value (v_x, v_y in m/s, w_z in rad/s).
+    pub max_command_offset: [f64; 3],
+    /// Largest tilt of the observed gravity vector, rad.
+    pub max_gravity_tilt: f64,
+    /// Largest force on each foot, N.
+    pub max_foot_force: f64,
+    /// Bound of each perturbation value of tasks without their own bounds (the cart-pole's push on the pole, N).
+    pub generic_bound: f64,
+}
+
+impl Default for AdversaryBounds {
+    fn default() -> Self {
+        AdversaryBounds {
+            max_command_offset: [0.3, 0.2, 0.5],
+            max_gravity_tilt: 0.1,
+            max_foot_force: 20.0,
+            generic_bound: 1.0,
+        }
+    }
 }
 
 impl Default for EnvConfig {
     fn default() -> Self {
         EnvConfig {
+            task: TaskKind::Topa,
             model: ModelKind::Closed,
             timestep: 0.005,
             decimation: 4,
@@ -54,8 +92,29 @@ impl Default for EnvConfig {
             push: PushConfig::default(),
             termination: TerminationConfig::default(),
             sim2sim: Default::default(),
+            adversary: AdversaryBounds::default(),
         }
     }
+}
+
+impl EnvConfig {
+    /// The `[env]` table of a training config, checked: unknown keys and bad values are errors naming them.
+    pub fn from_table(t: &toml::Table) -> Result<EnvConfig> {
+        let cfg: EnvConfig = toml::Value::Table(t.clone())
+            .try_into()
+            .map_err(|e: toml::de::Error| EnvError::Config(format!("[env]: {}", one_line(&e.to_string()))))?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Back to a table (to store in a training config).
+    pub fn to_table(&self) -> toml::Table {
+        toml::Table::try_from(self).expect("an EnvConfig is always a TOML table")
+    }
+}
+
+fn one_line(s: &str) -> String {
+    s.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('|')).collect::<Vec<_>>().join(" ")
 }
 
 /// Velocity commands (v_x, v_y, w_z) in the robot frame.

@@ -1,4 +1,5 @@
-//! The TopA robot spec, the paper's training environment, and a rayon-batched VecEnv on mujoco-sys.
+//! The TopA robot spec, the paper's training environment, and a rayon-batched implementation of the learner's
+//! `VecEnv` (defined by the trainer, which knows no robot) on mujoco-sys.
 
 pub mod assets;
 pub mod config;
@@ -15,7 +16,7 @@ pub mod task;
 pub mod tasks;
 pub mod vec_env;
 
-pub use config::EnvConfig;
+pub use config::{EnvConfig, TaskKind};
 pub use env::TopaEnv;
 pub use error::{EnvError, Result};
 pub use indices::RobotIndices;
@@ -23,4 +24,5 @@ pub use perturb::Perturbation;
 pub use robot::ModelKind;
 pub use symmetry::{SignedPermutation, Symmetry};
 pub use task::{StepOutcome, Task};
-pub use vec_env::{BatchEnv, EnvSnapshot, EpisodeStats, StepTiming, VecEnv};
+pub use trainer::{EnvSnapshot, EpisodeStats, PerturbationChannel, StepTiming, VecEnv};
+pub use vec_env::BatchEnv;

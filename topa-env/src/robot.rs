@@ -36,6 +36,24 @@ impl ModelKind {
             ModelKind::Open => "open",
         }
     }
+    /// How policy files name the robot a policy was trained on.
+    pub fn robot_name(self) -> &'static str {
+        match self {
+            ModelKind::Closed => "topa_closed",
+            ModelKind::Open => "topa_open",
+        }
+    }
+    /// The model a policy file names: its `robot`, or the `model` ("closed"/"open") of earlier builds.
+    pub fn of_policy(robot: Option<&str>, legacy_model: Option<&str>) -> std::result::Result<ModelKind, String> {
+        match (robot, legacy_model) {
+            (Some(r), _) => [ModelKind::Closed, ModelKind::Open]
+                .into_iter()
+                .find(|k| k.robot_name() == r)
+                .ok_or_else(|| format!("robot '{r}' is not one of this build's robots (topa_closed, topa_open)")),
+            (None, Some(m)) => m.parse(),
+            (None, None) => Err("the policy file does not name the robot it was trained on".into()),
+        }
+    }
     /// The bundled MJCF file, relative to the repository's `assets/mjcf/`.
     pub fn file_name(self) -> &'static str {
         match self {

@@ -1,61 +1,9 @@
 //! The paper's S_o and S_a: mirror maps of observations and actions in the XZ plane, as signed permutations
 //! (`out[i] = sign[i] · in[perm[i]]`), derived from the robot spec.
 
+pub use trainer::symmetry::{SignedPermutation, Symmetry};
+
 use crate::robot::{self, N_MOTORS};
-
-#[derive(Debug, Clone, PartialEq)]
-pub struct SignedPermutation {
-    pub perm: Vec<usize>,
-    pub sign: Vec<f32>,
-}
-
-impl SignedPermutation {
-    pub fn identity(n: usize) -> Self {
-        SignedPermutation { perm: (0..n).collect(), sign: vec![1.0; n] }
-    }
-
-    pub fn len(&self) -> usize {
-        self.perm.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.perm.is_empty()
-    }
-
-    /// Mirrors one row.
-    pub fn apply(&self, src: &[f32], dst: &mut [f32]) {
-        for ((d, &p), &s) in dst.iter_mut().zip(&self.perm).zip(&self.sign) {
-            *d = s * src[p];
-        }
-    }
-
-    /// Mirrors every row of a row-major matrix with `self.len()` columns.
-    pub fn apply_rows(&self, src: &[f32], dst: &mut [f32]) {
-        let n = self.len();
-        for (s, d) in src.chunks_exact(n).zip(dst.chunks_exact_mut(n)) {
-            self.apply(s, d);
-        }
-    }
-
-    /// True if applying the map twice gives the identity.
-    pub fn is_involution(&self) -> bool {
-        (0..self.len()).all(|i| self.perm[self.perm[i]] == i && self.sign[i] * self.sign[self.perm[i]] == 1.0)
-    }
-
-    /// Sets entries [offset, offset + n) to a block map.
-    fn set_block(&mut self, offset: usize, perm: &[usize], sign: &[f32]) {
-        for i in 0..perm.len() {
-            self.perm[offset + i] = offset + perm[i];
-            self.sign[offset + i] = sign[i];
-        }
-    }
-}
-
-#[derive(Debug, Clone, PartialEq)]
-pub struct Symmetry {
-    pub obs: SignedPermutation,
-    pub act: SignedPermutation,
-}
 
 /// Mirror of a robot-frame vector (x forward, y left, z up) in the XZ plane: y flips.
 const VEC_SIGN: [f32; 3] = [1.0, -1.0, 1.0];

@@ -1,8 +1,9 @@
 //! The single-environment interface every task implements (TopA, and the tiny test tasks); `BatchEnv` turns any
 //! `Task` into a parallel `VecEnv`.
 
+use trainer::{PerturbationChannel, Symmetry};
+
 use crate::error::Result;
-use crate::symmetry::Symmetry;
 
 /// What one step did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -29,11 +30,11 @@ pub trait Task: Send {
     fn terms(&self) -> &[f64];
     /// The left↔right mirror of observations and actions, if the task has one.
     fn symmetry(&self) -> Option<Symmetry>;
-    /// Size of the adversary's perturbation vector (0: the task takes none).
-    fn perturbation_dim(&self) -> usize {
-        0
+    /// What an adversary may perturb (empty: nothing), in the order of the perturbation vector.
+    fn perturbation_channels(&self) -> Vec<PerturbationChannel> {
+        Vec::new()
     }
-    /// Sets the adversary's perturbation (layout defined by the task), held until changed.
+    /// Sets the adversary's perturbation (the channels' values, in order), held until changed.
     fn set_perturbation(&mut self, _p: &[f32]) {}
     /// Appends the task's complete state (to continue bit for bit after a restore).
     fn save_state(&self, f64s: &mut Vec<f64>, u64s: &mut Vec<u64>);
@@ -50,27 +51,4 @@ pub trait Task: Send {
     }
 }
 
-/// Serialises a ChaCha RNG's position (seed, stream, word position) as u64 words.
-pub fn save_rng(rng: &rand_chacha::ChaCha8Rng, out: &mut Vec<u64>) {
-    let seed = rng.get_seed();
-    out.extend(seed.chunks(8).map(|c| u64::from_le_bytes(c.try_into().unwrap())));
-    out.push(rng.get_stream());
-    let pos = rng.get_word_pos();
-    out.push(pos as u64);
-    out.push((pos >> 64) as u64);
-}
-
-/// Inverse of `save_rng`; consumes 7 words.
-pub fn load_rng(words: &[u64]) -> rand_chacha::ChaCha8Rng {
-    use rand::SeedableRng;
-    let mut seed = [0u8; 32];
-    for (i, w) in words[..4].iter().enumerate() {
-        seed[i * 8..(i + 1) * 8].copy_from_slice(&w.to_le_bytes());
-    }
-    let mut rng = rand_chacha::ChaCha8Rng::from_seed(seed);
-    rng.set_stream(words[4]);
-    rng.set_word_pos(words[5] as u128 | ((words[6] as u128) << 64));
-    rng
-}
-
-pub const RNG_WORDS: usize = 7;
+pub use trainer::rng::{load_rng, save_rng, RNG_WORDS};

@@ -1,84 +1,15 @@
-//! `VecEnv`: what the trainer drives; `BatchEnv`: N tasks stepped in parallel on a rayon pool with auto-reset,
-//! flat f32 buffers and no allocation per step. Each task owns its random stream, so the result of a seed does
-//! not depend on the thread count.
+//! `BatchEnv`: N tasks stepped in parallel on a rayon pool with auto-reset, flat f32 buffers and no allocation
+//! per step — the learner's `VecEnv` for any `Task`. Each task owns its random stream, so the result of a seed
+//! does not depend on the thread count.
 
 use std::time::Instant;
 
 use rayon::prelude::*;
+use trainer::vec_env::{perturbation_dim, EnvSnapshot, EpisodeStats, PerturbationChannel, StepTiming, VecEnv};
+use trainer::Symmetry;
 
 use crate::error::{EnvError, Result};
-use crate::symmetry::Symmetry;
 use crate::task::Task;
-
-/// Statistics of the episodes that ended since the last `take_episode_stats`.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct EpisodeStats {
-    pub episodes: usize,
-    pub mean_return: f64,
-    pub mean_length: f64,
-    /// Share of finished episodes that ended by time-out (not a fall).
-    pub time_out_share: f64,
-    /// Mean episode sum of each reward term, in `term_names` order.
-    pub mean_terms: Vec<f64>,
-    /// Envs reset because their simulation failed or blew up.
-    pub diverged: usize,
-}
-
-/// Where the time of `step` went since the last `take_step_timing` (for `topa bench train`).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct StepTiming {
-    /// Calls of `step`.
-    pub steps: u64,
-    /// Wall time of `step`, s.
-    pub wall_s: f64,
-    /// Summed over envs (CPU time on the workers): stepping the tasks, of which physics, and resetting them, s.
-    pub task_s: f64,
-    pub physics_s: f64,
-    pub reset_s: f64,
-}
-
-pub trait VecEnv: Send {
-    fn num_envs(&self) -> usize;
-    fn obs_dim(&self) -> usize;
-    fn action_dim(&self) -> usize;
-    /// Resets every env.
-    fn reset(&mut self) -> Result<()>;
-    /// One policy step for all envs (`actions`: num_envs × action_dim, row-major). Finished envs are reset: their
-    /// row of `obs` is the new episode's first observation, and `terminal_obs` holds the last one.
-    fn step(&mut self, actions: &[f32]) -> Result<()>;
-    fn obs(&self) -> &[f32];
-    fn rewards(&self) -> &[f32];
-    /// 1.0 where the episode ended this step.
-    fn dones(&self) -> &[f32];
-    /// 1.0 where it ended by time-out only.
-    fn time_outs(&self) -> &[f32];
-    /// The final observation of episodes that ended this step (rows where `dones` is 1; others stale).
-    fn terminal_obs(&self) -> &[f32];
-    fn term_names(&self) -> Vec<String>;
-    fn take_episode_stats(&mut self) -> EpisodeStats;
-    fn symmetry(&self) -> Option<Symmetry>;
-    /// Size of each env's perturbation vector (0: none).
-    fn perturbation_dim(&self) -> usize;
-    /// Sets every env's perturbation (num_envs × perturbation_dim).
-    fn set_perturbations(&mut self, p: &[f32]) -> Result<()>;
-    /// The complete state of all envs (to resume bit for bit).
-    fn save_state(&self) -> EnvSnapshot;
-    fn load_state(&mut self, s: &EnvSnapshot) -> Result<()>;
-    /// Where `step`'s time went since the last call.
-    fn take_step_timing(&mut self) -> StepTiming {
-        StepTiming::default()
-    }
-}
-
-/// A batch's state: per-env f64 and u64 rows of fixed width, plus the observation buffer.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct EnvSnapshot {
-    pub f64_width: usize,
-    pub f64s: Vec<f64>,
-    pub u64_width: usize,
-    pub u64s: Vec<u64>,
-    pub obs: Vec<f32>,
-}
 
 /// Per-env running episode sums.
 #[derive(Debug, Clone, Default)]
@@ -173,7 +104,7 @@ impl<T: Task> VecEnv for BatchEnv<T> {
         self.act_dim
     }
 
-    fn reset(&mut self) -> Result<()> {
+    fn reset(&mut self) -> anyhow::Result<()> {
         let od = self.obs_dim;
         let (tasks, obs, episodes) = (&mut self.tasks, &mut self.obs, &mut self.episodes);
         let run = || {
@@ -184,13 +115,15 @@ impl<T: Task> VecEnv for BatchEnv<T> {
                 t.reset(o)
             })
         };
-        run_on(&self.pool, run)
+        Ok(run_on(&self.pool, run)?)
     }
 
-    fn step(&mut self, actions: &[f32]) -> Result<()> {
+    fn step(&mut self, actions: &[f32]) -> anyhow::Result<()> {
         let (n, od, ad) = (self.tasks.len(), self.obs_dim, self.act_dim);
         if actions.len() != n * ad {
-            return Err(EnvError::Shape(format!("actions hold {} values, expected {n} envs × {ad}", actions.len())));
+            return Err(
+                EnvError::Shape(format!("actions hold {} values, expected {n} envs × {ad}", actions.len())).into()
+            );
         }
         let start = Instant::now();
         let BatchEnv {
@@ -255,7 +188,7 @@ impl<T: Task> VecEnv for BatchEnv<T> {
         tm.task_s += (sum[0] + sum[2]) as f64 * 1e-9;
         tm.physics_s += sum[1] as f64 * 1e-9;
         tm.reset_s += sum[2] as f64 * 1e-9;
-        self.collect_finished()
+        Ok(self.collect_finished()?)
     }
 
     fn obs(&self) -> &[f32] {
@@ -296,17 +229,18 @@ impl<T: Task> VecEnv for BatchEnv<T> {
     fn symmetry(&self) -> Option<Symmetry> {
         self.tasks[0].symmetry()
     }
-    fn perturbation_dim(&self) -> usize {
-        self.tasks[0].perturbation_dim()
+    fn perturbation_channels(&self) -> Vec<PerturbationChannel> {
+        self.tasks[0].perturbation_channels()
     }
-    fn set_perturbations(&mut self, p: &[f32]) -> Result<()> {
-        let pd = self.perturbation_dim();
+    fn set_perturbations(&mut self, p: &[f32]) -> anyhow::Result<()> {
+        let pd = perturbation_dim(&self.perturbation_channels());
         if pd == 0 || p.len() != pd * self.tasks.len() {
             return Err(EnvError::Shape(format!(
                 "perturbations hold {} values, expected {} envs × {pd}",
                 p.len(),
                 self.tasks.len()
-            )));
+            ))
+            .into());
         }
         for (t, row) in self.tasks.iter_mut().zip(p.chunks_exact(pd)) {
             t.set_perturbation(row);
@@ -335,14 +269,15 @@ impl<T: Task> VecEnv for BatchEnv<T> {
         std::mem::take(&mut self.timing)
     }
 
-    fn load_state(&mut self, s: &EnvSnapshot) -> Result<()> {
+    fn load_state(&mut self, s: &EnvSnapshot) -> anyhow::Result<()> {
         let n = self.tasks.len();
         if s.obs.len() != self.obs.len() || s.f64s.len() != n * s.f64_width || s.u64s.len() != n * s.u64_width {
             return Err(EnvError::Shape(format!(
                 "env snapshot is for a different batch ({} observations for {n} envs × {})",
                 s.obs.len() / self.obs_dim.max(1),
                 self.obs_dim
-            )));
+            ))
+            .into());
         }
         let nterms = self.tasks[0].term_names().len();
         for (i, t) in self.tasks.iter_mut().enumerate() {
@@ -350,7 +285,7 @@ impl<T: Task> VecEnv for BatchEnv<T> {
             let u = &s.u64s[i * s.u64_width..(i + 1) * s.u64_width];
             let (fi, ui) = t.load_state(f, u)?;
             if fi + 1 + nterms != f.len() || ui + 1 != u.len() {
-                return Err(EnvError::Shape("env snapshot rows have the wrong width for this task".into()));
+                return Err(EnvError::Shape("env snapshot rows have the wrong width for this task".into()).into());
             }
             let e = &mut self.episodes[i];
             e.ret = f[fi];

@@ -1,29 +1,15 @@
-//! The adversary's side of the cyclic training: its bounded perturbations (tanh-scaled to configured limits)
-//! and its reward, the negative of the policy's task reward minus an optional cost on perturbation size.
+//! The adversary's side of the cyclic training: its bounded perturbations (tanh-scaled to the bounds of the
+//! task's perturbation channels) and its reward, the negative of the policy's task reward minus an optional
+//! cost on perturbation size.
 //!
-//! It observes exactly what the policy observes (the 42-d observation, perturbed command and gravity
-//! included): that is enough to time attacks to the gait phase and to the command, and keeps it deployable on
-//! the same signals.
+//! It observes exactly what the policy observes (perturbed command and gravity included): that is enough to
+//! time attacks to the gait phase and to the command, and keeps it deployable on the same signals.
 
-use topa_env::Perturbation;
+use crate::vec_env::PerturbationChannel;
 
-use crate::config::AdversaryConfig;
-
-/// Per-dimension bounds of the perturbation vector for a task with `dim` perturbation values.
-///
-/// TopA (12 values: command offset, gravity offset, left and right foot force): each command offset has its
-/// own bound; each gravity component is bounded by sin(max tilt)/√3, so the offset's norm stays below
-/// sin(max tilt) and the observed gravity tilts by at most the max tilt; each force component by
-/// max force/√3, so each foot's force stays below the max force. Other tasks use `generic_bound` per value.
-pub fn bounds(cfg: &AdversaryConfig, dim: usize) -> Vec<f32> {
-    if dim == Perturbation::ADVERSARY_DIM {
-        let g = (cfg.max_gravity_tilt.sin() / 3f64.sqrt()) as f32;
-        let f = (cfg.max_foot_force / 3f64.sqrt()) as f32;
-        let c = cfg.max_command_offset.map(|x| x as f32);
-        vec![c[0], c[1], c[2], g, g, g, f, f, f, f, f, f]
-    } else {
-        vec![cfg.generic_bound as f32; dim]
-    }
+/// The bound of every value of the perturbation vector, channel after channel.
+pub fn bounds(channels: &[PerturbationChannel]) -> Vec<f32> {
+    channels.iter().flat_map(|c| c.bounds.iter().copied()).collect()
 }
 
 /// perturbation = bound ⊙ tanh(raw action), row by row.
@@ -34,21 +20,27 @@ pub fn squash(raw: &[f32], bounds: &[f32], out: &mut [f32]) {
     }
 }
 
-/// Mean magnitude of the three TopA perturbation groups over a batch: (|command offset|, |gravity offset|,
-/// mean |foot force|). Zeros for other layouts.
-pub fn magnitudes(p: &[f32], dim: usize) -> [f64; 3] {
-    if dim != Perturbation::ADVERSARY_DIM || p.is_empty() {
-        return [0.0; 3];
+/// Mean magnitude of each channel over a batch of perturbation rows: the mean Euclidean norm of the channel's
+/// groups (e.g. the mean of both feet's force norms), averaged over rows.
+pub fn magnitudes(p: &[f32], channels: &[PerturbationChannel]) -> Vec<f64> {
+    let dim: usize = channels.iter().map(PerturbationChannel::dim).sum();
+    let mut out = vec![0.0; channels.len()];
+    if dim == 0 || p.is_empty() {
+        return out;
     }
     let norm = |s: &[f32]| s.iter().map(|x| (*x as f64).powi(2)).sum::<f64>().sqrt();
     let rows = p.len() / dim;
-    let mut out = [0.0; 3];
     for row in p.chunks_exact(dim) {
-        out[0] += norm(&row[0..3]);
-        out[1] += norm(&row[3..6]);
-        out[2] += 0.5 * (norm(&row[6..9]) + norm(&row[9..12]));
+        let mut at = 0;
+        for (c, m) in channels.iter().zip(out.iter_mut()) {
+            let block = &row[at..at + c.dim()];
+            let groups = block.chunks(c.group);
+            let k = groups.len().max(1) as f64;
+            *m += groups.map(norm).sum::<f64>() / k;
+            at += c.dim();
+        }
     }
-    out.map(|x| x / rows as f64)
+    out.iter().map(|x| x / rows as f64).collect()
 }
 
 /// The adversary's reward for one env: −(task reward) − cost·‖perturbation / bound‖².
@@ -60,33 +52,29 @@ pub fn reward(task_reward: f32, perturbation: &[f32], bounds: &[f32], cost: f64)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::{RngExt, SeedableRng};
 
     #[test]
-    fn perturbations_never_exceed_their_limits() {
-        let cfg = AdversaryConfig::default();
-        let b = bounds(&cfg, 12);
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
-        for _ in 0..2000 {
-            // Raw outputs of any size, including absurd ones.
-            let scale: f32 = 10f32.powi(rng.random_range(-2..6));
-            let raw: Vec<f32> = (0..12).map(|_| rng.random_range(-1.0..1.0) * scale).collect();
-            let mut p = vec![0.0; 12];
-            squash(&raw, &b, &mut p);
-            for i in 0..3 {
-                assert!(p[i].abs() <= cfg.max_command_offset[i] as f32);
-            }
-            let g = (p[3] as f64).hypot(p[4] as f64).hypot(p[5] as f64);
-            assert!(g <= cfg.max_gravity_tilt.sin() + 1e-6);
-            // The observed gravity (0,0,−1) + offset, renormalised, tilts by at most the max tilt.
-            let tilted = [p[3] as f64, p[4] as f64, p[5] as f64 - 1.0];
-            let n = (tilted[0].powi(2) + tilted[1].powi(2) + tilted[2].powi(2)).sqrt();
-            assert!((-tilted[2] / n).acos() <= cfg.max_gravity_tilt + 1e-6);
-            for foot in [&p[6..9], &p[9..12]] {
-                let f = foot.iter().map(|x| (*x as f64).powi(2)).sum::<f64>().sqrt();
-                assert!(f <= cfg.max_foot_force + 1e-4, "{f}");
-            }
+    fn squashed_values_stay_inside_their_bounds() {
+        let b = [0.5f32, 2.0, 10.0];
+        let raw = [1e6f32, -3.0, 0.1, -1e9, 0.0, 40.0];
+        let mut out = [0.0; 6];
+        squash(&raw, &b, &mut out);
+        for (i, o) in out.iter().enumerate() {
+            assert!(o.abs() <= b[i % 3], "{o}");
         }
+        assert_eq!(out[0], 0.5);
+        assert!((out[2] - 10.0 * 0.1f32.tanh()).abs() < 1e-6);
+    }
+
+    #[test]
+    fn magnitudes_are_mean_group_norms_per_channel() {
+        let ch = vec![PerturbationChannel::new("a", vec![1.0; 2], 2), PerturbationChannel::new("f", vec![1.0; 6], 3)];
+        // Two rows: channel a norms 5 and 0; channel f foot norms (3, 0) and (2, 2).
+        let p = [3.0, 4.0, 3.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 2.0, 0.0];
+        let m = magnitudes(&p, &ch);
+        assert!((m[0] - 2.5).abs() < 1e-12);
+        assert!((m[1] - (1.5 + 2.0) / 2.0).abs() < 1e-12);
+        assert_eq!(bounds(&ch).len(), 8);
     }
 
     #[test]

@@ -8,13 +8,13 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use candle_core::{Device, Tensor};
 use serde::{Deserialize, Serialize};
-use topa_env::EnvSnapshot;
 
 use crate::config::TrainConfig;
 use crate::optim::AdamState;
 use crate::ppo::Agent;
 use crate::tensorfile::{checksum, write_atomic, Bundle, Loaded};
 use crate::train::Trainer;
+use crate::vec_env::EnvSnapshot;
 
 pub const FORMAT: &str = "topa-checkpoint";
 pub const VERSION: u32 = 1;
@@ -46,6 +46,7 @@ pub struct Sidecar {
     /// The weights file (same directory) and its CRC-32.
     pub weights: String,
     pub weights_crc32: u32,
+    #[serde(deserialize_with = "crate::config::deserialize_migrated")]
     pub config: TrainConfig,
     /// The command line that started the run (for the record).
     pub command: String,
@@ -113,7 +114,7 @@ pub fn save(t: &Trainer, dir: &Path, command: &str, keep: usize) -> Result<PathB
     let (n, od) = (t.env.num_envs(), t.env.obs_dim());
     let (fw, uw) = (snap.f64_width, snap.u64_width);
     let mut rng = Vec::new();
-    topa_env::task::save_rng(&t.rng, &mut rng);
+    crate::rng::save_rng(&t.rng, &mut rng);
     let stem = format!("ckpt_{:07}", t.iteration);
     let side_path = dir.join(format!("{stem}.json"));
     let (mut f64s, mut u64s, mut obs, mut rank_rngs) = (snap.f64s, snap.u64s, snap.obs, Vec::new());
@@ -268,10 +269,10 @@ pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
     };
     t.env.load_state(&snap)?;
     let rng = if rank == 0 { &side.rng } else { &side.rank_rngs[rank - 1] };
-    if rng.len() != topa_env::task::RNG_WORDS {
-        bail!("checkpoint RNG state has {} words, expected {}", rng.len(), topa_env::task::RNG_WORDS);
+    if rng.len() != crate::rng::RNG_WORDS {
+        bail!("checkpoint RNG state has {} words, expected {}", rng.len(), crate::rng::RNG_WORDS);
     }
-    t.rng = topa_env::task::load_rng(rng);
+    t.rng = crate::rng::load_rng(rng);
     t.iteration = side.iteration;
     t.samples = side.samples;
     t.wall_time_s = side.wall_time_s;

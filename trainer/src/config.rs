@@ -1,16 +1,17 @@
-//! Training configuration: one TOML file (`configs/paper.toml`, `configs/cpu.toml`) with the environment, PPO,
-//! network, robustness losses, adversary and run settings. Unknown keys are rejected with the key's name.
+//! Training configuration: one TOML file (`configs/paper.toml`, `configs/cpu.toml`) with the run, PPO, network,
+//! robustness losses and adversary settings, and the task's own `[env]` table, which the learner keeps without
+//! reading it (the task validates it). Unknown keys are rejected with the key's name.
 
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use topa_env::EnvConfig;
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TrainConfig {
     pub run: RunConfig,
-    pub env: EnvConfig,
+    /// The task's settings (robot, rewards, randomisation, perturbation bounds …): opaque to the learner.
+    pub env: toml::Table,
     pub ppo: PpoConfig,
     pub network: NetworkConfig,
     pub losses: LossConfig,
@@ -34,17 +35,6 @@ pub struct RunConfig {
     pub checkpoint_every: usize,
     /// Keep only the newest this many checkpoints (0 = keep all).
     pub keep_checkpoints: usize,
-    /// What is trained: the TopA robot, or the cart-pole (a one-minute check of an install or an MPI cluster).
-    #[serde(default)]
-    pub task: TaskKind,
-}
-
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TaskKind {
-    #[default]
-    Topa,
-    Cartpole,
 }
 
 impl Default for RunConfig {
@@ -57,7 +47,6 @@ impl Default for RunConfig {
             threads: 0,
             checkpoint_every: 50,
             keep_checkpoints: 3,
-            task: TaskKind::Topa,
         }
     }
 }
@@ -153,16 +142,9 @@ pub struct AdversaryConfig {
     pub phase3_policy_iters: usize,
     pub cycles: usize,
     pub hidden: Vec<usize>,
-    /// Bounds of the perturbations (tanh-scaled outputs).
-    pub max_command_offset: [f64; 3],
-    /// Largest tilt of the observed gravity vector, rad.
-    pub max_gravity_tilt: f64,
-    /// Largest force on each foot, N.
-    pub max_foot_force: f64,
-    /// Cost on perturbation magnitude in the adversary's reward (0 = pure −task reward).
+    /// Cost on perturbation magnitude in the adversary's reward (0 = pure −task reward). What it perturbs and
+    /// how far is the task's (its perturbation channels and their bounds).
     pub magnitude_cost: f64,
-    /// Bound of each perturbation value for tasks other than TopA (e.g. the cart-pole's push, N).
-    pub generic_bound: f64,
     /// Adversary PPO learning rate (its own optimizer).
     pub learning_rate: f64,
     /// Adversary entropy bonus. Its outputs are tanh-bounded, so a bonus on the Gaussian's entropy has no limit
@@ -183,11 +165,7 @@ impl Default for AdversaryConfig {
             phase3_policy_iters: 200,
             cycles: 5,
             hidden: vec![512, 256, 128],
-            max_command_offset: [0.3, 0.2, 0.5],
-            max_gravity_tilt: 0.1,
-            max_foot_force: 20.0,
             magnitude_cost: 0.0,
-            generic_bound: 1.0,
             learning_rate: 3e-5,
             entropy_coef: 0.0,
             sample_when_frozen: true,
@@ -213,7 +191,8 @@ impl TrainConfig {
     /// this file's keys on top, table by table, so an experiment config holds only what it changes.
     pub fn load(path: &Path) -> Result<TrainConfig, ConfigError> {
         let p = path.display().to_string();
-        let table = load_table(path, 0)?;
+        let mut table = load_table(path, 0)?;
+        migrate(&mut table);
         let cfg: TrainConfig = toml::Value::Table(table)
             .try_into()
             .map_err(|e: toml::de::Error| ConfigError::Parse { path: p.clone(), message: one_line(&e.to_string()) })?;
@@ -221,8 +200,15 @@ impl TrainConfig {
         Ok(cfg)
     }
 
+    /// A config saved in a checkpoint or policy sidecar (JSON), in the current layout whatever build wrote it.
+    pub fn from_json(v: &serde_json::Value) -> Result<TrainConfig, String> {
+        let mut table: toml::Table = serde_json::from_value(v.clone()).map_err(|e| e.to_string())?;
+        migrate(&mut table);
+        toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| one_line(&e.to_string()))
+    }
+
+    /// The learner's own keys (the task checks `env`).
     pub fn validate(&self) -> Result<(), String> {
-        self.env.validate().map_err(|e| e.to_string())?;
         let r = &self.run;
         if r.num_envs == 0 || r.steps_per_env == 0 {
             return Err("run.num_envs and run.steps_per_env must be at least 1".into());
@@ -273,6 +259,51 @@ impl TrainConfig {
     }
 }
 
+/// Earlier builds kept two task settings in the learner's tables: `run.task` (which task) and the adversary's
+/// perturbation bounds in `[adversary]`. Both belong to the task: they move into `[env]` (`env.task`, and the
+/// bounds into `[env.adversary]`), so old configs, checkpoints and policy
+/// files keep loading.
+pub fn migrate(table: &mut toml::Table) {
+    const MOVED: [&str; 4] = ["max_command_offset", "max_gravity_tilt", "max_foot_force", "generic_bound"];
+    let mut to_env: Vec<(String, toml::Value)> = Vec::new();
+    if let Some(toml::Value::Table(run)) = table.get_mut("run") {
+        if let Some(task) = run.remove("task") {
+            to_env.push(("task".into(), task));
+        }
+    }
+    let mut bounds = toml::Table::new();
+    if let Some(toml::Value::Table(adv)) = table.get_mut("adversary") {
+        for k in MOVED {
+            if let Some(v) = adv.remove(k) {
+                bounds.insert(k.to_string(), v);
+            }
+        }
+    }
+    if to_env.is_empty() && bounds.is_empty() {
+        return;
+    }
+    let env = table.entry("env").or_insert_with(|| toml::Value::Table(toml::Table::new()));
+    if let toml::Value::Table(env) = env {
+        for (k, v) in to_env {
+            env.entry(k).or_insert(v);
+        }
+        if !bounds.is_empty() {
+            let adv = env.entry("adversary").or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            if let toml::Value::Table(adv) = adv {
+                for (k, v) in bounds {
+                    adv.entry(k).or_insert(v);
+                }
+            }
+        }
+    }
+}
+
+/// Serde helper for configs inside JSON sidecars (checkpoints, policy files): migrated before parsing.
+pub fn deserialize_migrated<'de, D: serde::Deserializer<'de>>(d: D) -> Result<TrainConfig, D::Error> {
+    let v = serde_json::Value::deserialize(d)?;
+    TrainConfig::from_json(&v).map_err(serde::de::Error::custom)
+}
+
 /// toml's errors span several lines (with a source excerpt); keep them on one.
 fn one_line(s: &str) -> String {
     s.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('|')).collect::<Vec<_>>().join(" ")
@@ -306,5 +337,31 @@ fn merge(base: &mut toml::Table, over: toml::Table) {
                 base.insert(k, v);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn configs_of_earlier_builds_move_their_task_settings_into_env() {
+        let old = serde_json::json!({
+            "run": {"seed": 4, "task": "cartpole"},
+            "adversary": {"cycles": 2, "max_foot_force": 12.0, "max_gravity_tilt": 0.2, "generic_bound": 1.5},
+            "env": {"timestep": 0.004, "adversary": {"max_gravity_tilt": 0.3}},
+        });
+        let c = TrainConfig::from_json(&old).unwrap();
+        assert_eq!((c.run.seed, c.adversary.cycles), (4, 2));
+        assert_eq!(c.env["task"].as_str(), Some("cartpole"));
+        let adv = c.env["adversary"].as_table().unwrap();
+        assert_eq!(adv["max_foot_force"].as_float(), Some(12.0));
+        assert_eq!(adv["generic_bound"].as_float(), Some(1.5));
+        // A value already in the new place wins over the moved one.
+        assert_eq!(adv["max_gravity_tilt"].as_float(), Some(0.3));
+        assert_eq!(c.env["timestep"].as_float(), Some(0.004));
+        // Unknown learner keys are still errors, named.
+        let bad = serde_json::json!({"adversary": {"cylces": 2}});
+        assert!(TrainConfig::from_json(&bad).unwrap_err().contains("cylces"));
     }
 }

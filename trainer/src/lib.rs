@@ -1,5 +1,6 @@
 //! The learning core: networks (fast CPU kernels inside Candle's autograd), PPO with the paper's symmetry and
-//! last-layer decay losses, the cyclic adversary, checkpoints and policy files.
+//! last-layer decay losses, the cyclic adversary, checkpoints and policy files — and the interface it needs from
+//! an environment (`vec_env`, `symmetry`), which knows no robot.
 
 pub mod actor_critic;
 pub mod adversary;
@@ -12,10 +13,15 @@ pub mod normalizer;
 pub mod optim;
 pub mod policy_file;
 pub mod ppo;
+pub mod rng;
 pub mod schedule;
 pub mod storage;
+pub mod symmetry;
 pub mod tensorfile;
 pub mod train;
+pub mod vec_env;
 
 pub use config::TrainConfig;
+pub use symmetry::{SignedPermutation, Symmetry};
 pub use train::{IterationLog, Trainer};
+pub use vec_env::{EnvSnapshot, EpisodeStats, PerturbationChannel, StepTiming, VecEnv};

@@ -14,6 +14,7 @@ pub struct MetricsWriter {
     csv_path: PathBuf,
     csv: std::fs::File,
     columns: Vec<String>,
+    perturbation_columns: usize,
     tb: tboard::EventWriter<std::fs::File>,
 }
 
@@ -54,9 +55,15 @@ fn update_values(u: &Option<UpdateStats>) -> Vec<f64> {
 }
 
 impl MetricsWriter {
-    /// Opens `dir/metrics.csv` and a new event file under `dir/tb/`. When resuming at `resume_iteration`, rows
-    /// after it (written before the interruption, and about to be redone) are dropped.
-    pub fn open(dir: &Path, term_names: &[String], resume_iteration: Option<usize>) -> Result<Self> {
+    /// Opens `dir/metrics.csv` and a new event file under `dir/tb/`, with a column per reward term and per
+    /// perturbation channel (`perturb_<name>`). When resuming at `resume_iteration`, rows after it (written before
+    /// the interruption, and about to be redone) are dropped.
+    pub fn open(
+        dir: &Path,
+        term_names: &[String],
+        perturbation_names: &[String],
+        resume_iteration: Option<usize>,
+    ) -> Result<Self> {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let mut columns: Vec<String> = [
             "iteration",
@@ -77,13 +84,12 @@ impl MetricsWriter {
             "diverged",
             "mean_step_reward",
             "action_std",
-            "perturb_command",
-            "perturb_gravity",
-            "perturb_foot_force",
         ]
         .iter()
         .map(|s| s.to_string())
         .collect();
+        columns.extend(perturbation_names.iter().map(|p| format!("perturb_{p}")));
+        let perturbation_columns = perturbation_names.len();
         columns.extend(update_columns("policy"));
         columns.extend(update_columns("adversary"));
         columns.extend(term_names.iter().map(|t| format!("rew_{t}")));
@@ -111,7 +117,7 @@ impl MetricsWriter {
         crate::tensorfile::write_atomic(&csv_path, format!("{header}\n{kept}").as_bytes())?;
         let csv = OpenOptions::new().append(true).open(&csv_path)?;
         let tb = tboard::EventWriter::create(dir.join("tb")).map_err(|e| anyhow::anyhow!("TensorBoard writer: {e}"))?;
-        Ok(MetricsWriter { csv_path, csv, columns, tb })
+        Ok(MetricsWriter { csv_path, csv, columns, perturbation_columns, tb })
     }
 
     pub fn csv_path(&self) -> &Path {
@@ -139,10 +145,9 @@ impl MetricsWriter {
             e.diverged as f64,
             log.mean_step_reward,
             log.action_std,
-            log.perturbation[0],
-            log.perturbation[1],
-            log.perturbation[2],
         ];
+        // Zeros while no adversary acts (phase 1, or a run without one).
+        values.extend((0..self.perturbation_columns).map(|i| log.perturbation.get(i).copied().unwrap_or(0.0)));
         values.extend(update_values(&log.policy));
         values.extend(update_values(&log.adversary));
         values.extend(e.mean_terms.iter().copied());

@@ -3,7 +3,7 @@
 //! symmetric and normalise(S_o(o)) = S_o(normalise(o)) holds bit for bit — the symmetry loss can then mirror
 //! normalised observations directly.
 
-use topa_env::SignedPermutation;
+use crate::symmetry::SignedPermutation;
 
 /// Added to the standard deviation (rsl_rl's EmpiricalNormalization uses 1e-2), so constant inputs stay finite.
 pub const STD_EPS: f64 = 1e-2;

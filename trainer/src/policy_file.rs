@@ -1,5 +1,5 @@
 //! The deployable policy: the actor's weights and the frozen observation normaliser (safetensors) plus a JSON
-//! sidecar saying what it is (model it was trained on, sizes, control settings) and how it was made (command,
+//! sidecar saying what it is (the robot spec it was trained on, sizes, control settings) and how it was made (command,
 //! config, seed, iterations, samples, wall time). Loading validates everything before use: files are data.
 
 use std::path::{Path, PathBuf};
@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use candle_core::{Device, Tensor};
 use serde::{Deserialize, Serialize};
-use topa_env::ModelKind;
 
 use crate::actor_critic::named_mlp;
 use crate::nn::{Activation, Linear, Mlp, MlpScratch};
@@ -21,6 +20,7 @@ pub const VERSION: u32 = 1;
 #[serde(deny_unknown_fields)]
 pub struct Provenance {
     pub command: String,
+    #[serde(deserialize_with = "crate::config::deserialize_migrated")]
     pub config: crate::TrainConfig,
     pub seed: u64,
     pub iterations: usize,
@@ -36,8 +36,13 @@ pub struct Provenance {
 pub struct PolicyMeta {
     pub format: String,
     pub version: u32,
-    /// Which MJCF the policy was trained on: a closed-model policy acts in motor space, an open one in joint space.
-    pub model: Option<ModelKind>,
+    /// The robot spec the policy was trained on, as the task names it (for TopA a spec file relative to the
+    /// repository, e.g. `assets/robots/topa_closed.toml`); none for tasks without a robot.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot: Option<String>,
+    /// What earlier builds wrote instead of `robot`: "closed" or "open" (kept so that their files load).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
     pub obs_dim: usize,
     pub action_dim: usize,
     pub hidden: Vec<usize>,

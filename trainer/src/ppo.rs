@@ -2,10 +2,10 @@
 //! loss, entropy bonus, the paper's symmetry and last-layer decay losses, adaptive learning rate from the
 //! closed-form KL, global gradient-norm clipping, AdamW.
 
+use crate::symmetry::Symmetry;
 use candle_core::{Device, Result, Tensor};
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
-use topa_env::Symmetry;
 
 use std::rc::Rc;
 

@@ -8,7 +8,6 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use topa_env::{EpisodeStats, StepTiming, VecEnv};
 
 use crate::actor_critic::ActorCritic;
 use crate::adversary;
@@ -17,10 +16,12 @@ use crate::config::{LossConfig, TrainConfig};
 use crate::ppo::{ActOutput, Agent, UpdateStats};
 use crate::schedule::{Phase, Position, Schedule};
 use crate::storage::Rollout;
+use crate::vec_env::{perturbation_dim, EpisodeStats, PerturbationChannel, StepTiming, VecEnv};
 
-/// The adversary agent and its perturbation bounds.
+/// The adversary agent, the task's perturbation channels and their bounds (flattened).
 pub struct Adversary {
     pub agent: Agent,
+    pub channels: Vec<PerturbationChannel>,
     pub bounds: Vec<f32>,
 }
 
@@ -52,8 +53,9 @@ pub struct IterationLog {
     pub mean_step_reward: f64,
     pub policy: Option<UpdateStats>,
     pub adversary: Option<UpdateStats>,
-    /// Mean |command offset|, |gravity offset|, |foot force| the adversary applied (zeros in phase 1).
-    pub perturbation: [f64; 3],
+    /// Mean magnitude of each perturbation channel the adversary applied (zeros in phase 1; empty without an
+    /// adversary), in the env's channel order.
+    pub perturbation: Vec<f64>,
     pub action_std: f64,
     /// Time in collectives and bytes this rank sent and received (zero in a one-process run).
     pub comm: CommStats,
@@ -105,7 +107,8 @@ impl Trainer {
         let ac = ActorCritic::new(od, ad, &net.actor_hidden, &net.critic_hidden, net.init_noise_std, &mut rng)?;
         let policy = Agent::new(ac, cfg.ppo.clone(), cfg.losses.clone(), env.symmetry());
         let (adversary, schedule) = if with_adversary {
-            let pd = env.perturbation_dim();
+            let channels = env.perturbation_channels();
+            let pd = perturbation_dim(&channels);
             anyhow::ensure!(pd > 0, "this task takes no perturbations, so it cannot be trained with an adversary");
             let a = &cfg.adversary;
             let ac = ActorCritic::new(od, pd, &a.hidden, &a.hidden, net.init_noise_std, &mut rng)?;
@@ -117,7 +120,8 @@ impl Trainer {
             let agent = Agent::new(ac, ppo, losses, None);
             let sched =
                 Schedule::cyclic(a.phase1_policy_iters, a.phase2_adversary_iters, a.phase3_policy_iters, a.cycles);
-            (Some(Adversary { agent, bounds: adversary::bounds(a, pd) }), sched)
+            let bounds = adversary::bounds(&channels);
+            (Some(Adversary { agent, channels, bounds }), sched)
         } else {
             (None, Schedule::plain(cfg.run.iterations))
         };
@@ -238,7 +242,7 @@ impl Trainer {
     }
 
     /// One rollout of `steps_per_env` steps; fills the learning agent's storage and computes its returns.
-    fn collect(&mut self, phase: Phase) -> Result<(f64, [f64; 3], f64)> {
+    fn collect(&mut self, phase: Phase) -> Result<(f64, Vec<f64>, f64)> {
         let (n, od, ad) = (self.env.num_envs(), self.env.obs_dim(), self.env.action_dim());
         let steps = self.cfg.run.steps_per_env;
         let gamma = self.cfg.ppo.gamma;
@@ -265,7 +269,8 @@ impl Trainer {
         if let Some(r) = &mut self.adversary_rollout {
             r.clear();
         }
-        let (mut reward_sum, mut magnitude) = (0.0f64, [0.0f64; 3]);
+        let mut reward_sum = 0.0f64;
+        let mut magnitude = vec![0.0f64; self.adversary.as_ref().map_or(0, |a| a.channels.len())];
         let mut inference = std::time::Duration::ZERO;
         for t in 0..steps {
             let t_act = Instant::now();
@@ -324,9 +329,9 @@ impl Trainer {
                     let attacked = (self.cfg.adversary.attack_share * n as f64).ceil() as usize;
                     s.perturbation[attacked.min(n) * pd..].fill(0.0);
                 }
-                let m = adversary::magnitudes(&s.perturbation, pd);
-                for i in 0..3 {
-                    magnitude[i] += m[i] / steps as f64;
+                let m = adversary::magnitudes(&s.perturbation, &a.channels);
+                for (sum, x) in magnitude.iter_mut().zip(m) {
+                    *sum += x / steps as f64;
                 }
                 self.env.set_perturbations(&s.perturbation)?;
             }

@@ -491,8 +491,8 @@ impl Task for TopaEnv {
     fn symmetry(&self) -> Option<Symmetry> {
         Some(symmetry::topa())
     }
-    fn perturbation_dim(&self) -> usize {
-        Perturbation::ADVERSARY_DIM
+    fn perturbation_channels(&self) -> Vec<trainer::PerturbationChannel> {
+        crate::perturb::channels(&self.cfg.adversary)
     }
     fn set_perturbation(&mut self, p: &[f32]) {
         let torso = self.perturbation.torso_force_local;

@@ -30,13 +30,14 @@ pub struct CartPole {
     max_steps: usize,
     steps: usize,
     terms: [f64; 1],
-    /// Adversary's horizontal force on the pole, N.
+    /// Adversary's horizontal force on the pole, N, and its bound.
     push: f64,
+    push_bound: f64,
 }
 
 impl CartPole {
-    /// `max_steps` policy steps of 0.02 s per episode.
-    pub fn new(model: Arc<Model>, seed: u64, index: u64, max_steps: usize) -> Result<Self> {
+    /// `max_steps` policy steps of 0.02 s per episode; an adversary may push the pole with up to `push_bound` N.
+    pub fn new(model: Arc<Model>, seed: u64, index: u64, max_steps: usize, push_bound: f64) -> Result<Self> {
         let adr = |name: &str| -> Result<(usize, usize)> {
             let j = model.id(ObjType::Joint, name)?;
             Ok((model.jnt_qposadr_of(j), model.jnt_dofadr_of(j)))
@@ -59,6 +60,7 @@ impl CartPole {
             steps: 0,
             terms: [0.0],
             push: 0.0,
+            push_bound,
         })
     }
 
@@ -122,8 +124,8 @@ impl Task for CartPole {
             act: SignedPermutation { perm: vec![0], sign: vec![-1.0] },
         })
     }
-    fn perturbation_dim(&self) -> usize {
-        1
+    fn perturbation_channels(&self) -> Vec<trainer::PerturbationChannel> {
+        vec![trainer::PerturbationChannel::new("push", vec![self.push_bound as f32], 1)]
     }
     fn set_perturbation(&mut self, p: &[f32]) {
         self.push = p[0] as f64;
