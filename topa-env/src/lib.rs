@@ -10,6 +10,7 @@ pub mod perturb;
 pub mod rewards;
 pub mod robot;
 pub mod sim2sim;
+pub mod spec;
 pub mod state;
 pub mod symmetry;
 pub mod task;
