@@ -92,6 +92,10 @@ int mjs_kinematics(const mjModel* m, mjData* d, char* err, int errlen) {
   GUARDED(mj_kinematics(m, d); mj_comPos(m, d); mj_comVel(m, d))
 }
 
+// Positions, the constraint set and its Jacobian for the current qpos (no velocities, forces or integration):
+// what loop-closure solving needs.
+int mjs_fwd_position(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_fwdPosition(m, d)) }
+
 // Rendering calls that raise mju_error when no usable OpenGL context is current.
 int mjs_make_scene(const mjModel* m, mjvScene* scn, int maxgeom, char* err, int errlen) {
   GUARDED(mjv_makeScene(m, scn, maxgeom))

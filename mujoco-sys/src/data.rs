@@ -240,6 +240,29 @@ impl Data {
         guarded("mj_kinematics", |e, n| unsafe { guard::mjs_kinematics(m, d, e, n) })
     }
 
+    /// Positions and the constraint set (rows, violations, Jacobian) for the current `qpos` (`mj_fwdPosition`):
+    /// what loop-closure solving needs, without velocities, forces or integration.
+    pub fn fwd_position(&mut self) -> Result<()> {
+        let (m, d) = self.parts();
+        // SAFETY: d was made for m; the call is guarded (a MuJoCo error returns instead of exiting).
+        let r = guarded("mj_fwdPosition", |e, n| unsafe { guard::mjs_fwd_position(m, d, e, n) });
+        self.check_capacity("mj_fwdPosition", r)
+    }
+
+    /// The constraint Jacobian as a dense nefc × nv row-major matrix, or `None` when the model stores it sparse
+    /// (`Model::set_dense_jacobian` makes a model store it dense).
+    pub fn efc_jacobian(&self) -> Option<&[f64]> {
+        let (m, d) = (self.model().raw(), self.raw());
+        let sparse =
+            m.opt.jacobian == ffi::mjJAC_SPARSE as i32 || (m.opt.jacobian == ffi::mjJAC_AUTO as i32 && m.nv >= 60);
+        if sparse {
+            return None;
+        }
+        // SAFETY: in dense mode efc_J holds nefc × nv doubles, valid until the next call that changes the data
+        // (which needs &mut self).
+        Some(unsafe { view(d.efc_J, d.nefc as usize * m.nv as usize) })
+    }
+
     /// Back to `qpos0`, zero velocity, zero controls, warnings cleared.
     pub fn reset(&mut self) -> Result<()> {
         let (m, d) = self.parts();

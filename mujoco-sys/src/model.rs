@@ -163,6 +163,12 @@ impl Model {
     }
 
     /// Whether `mj_step`/`mj_forward` compute the sensors (`sensordata`).
+    /// Store the constraint Jacobian dense (nefc × nv) whatever the model's size (`Data::efc_jacobian`).
+    pub fn set_dense_jacobian(&mut self) {
+        // SAFETY: a solver option, not a size: nothing allocated depends on it.
+        unsafe { self.raw_mut().opt.jacobian = ffi::mjJAC_DENSE as i32 };
+    }
+
     pub fn sensors_enabled(&self) -> bool {
         self.raw().opt.disableflags & ffi::mjDSBL_SENSOR as i32 == 0
     }

@@ -6,6 +6,7 @@ pub mod config;
 pub mod env;
 pub mod error;
 pub mod indices;
+pub mod linkage;
 pub mod perturb;
 pub mod rewards;
 pub mod robot;

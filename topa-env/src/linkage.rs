@@ -1,0 +1,206 @@
+//! Motor↔joint maps of a robot with closed kinematic loops, computed from its MJCF's own constraints instead of
+//! typed in: positions by solving the loop closure (Gauss–Newton on the loops' passive joints), velocities by the
+//! closure's Jacobian J = ∂q_joint/∂q_motor, torques by virtual work, τ_motor = Jᵀ τ_joint. Nonlinear linkages
+//! (four-bar knees, two-rod ankles) work the same as TopA's linear one.
+
+use std::sync::Arc;
+
+use mujoco_sys::{ffi, Data, Model, ObjType};
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{EnvError, Result};
+use crate::spec::RobotSpec;
+
+/// Loop closure is solved to this residual (m for a connect, rad for a joint equality).
+const CLOSURE_TOL: f64 = 1e-12;
+const MAX_ITERATIONS: usize = 60;
+
+pub struct Linkage {
+    data: Data,
+    key: usize,
+    /// qpos address and dof of each motor's driven joint, and of its kinematic joint.
+    motor_qpos: Vec<usize>,
+    motor_dof: Vec<usize>,
+    joint_qpos: Vec<usize>,
+    /// Passive joints of all loops (hinges or slides: one qpos, one dof each).
+    passive_qpos: Vec<usize>,
+    passive_dof: Vec<usize>,
+    /// For each motor, the passive joint that is its kinematic joint (None: the motor drives it directly).
+    joint_is_passive: Vec<Option<usize>>,
+    equalities: Vec<usize>,
+    nominal_motors: Vec<f64>,
+}
+
+impl Linkage {
+    /// The maps of `spec` on `model` (its own copy, with a dense constraint Jacobian).
+    pub fn new(spec: &RobotSpec, model: &Model) -> Result<Self> {
+        let mut m = model.try_clone()?;
+        m.set_dense_jacobian();
+        let m = Arc::new(m);
+        let joint = |name: &str| -> Result<usize> { Ok(m.id(ObjType::Joint, name)?) };
+        let (mut motor_qpos, mut motor_dof, mut joint_qpos) = (vec![], vec![], vec![]);
+        for mo in &spec.motors {
+            let (d, j) = (joint(&mo.drives)?, joint(&mo.joint)?);
+            motor_qpos.push(m.jnt_qposadr_of(d));
+            motor_dof.push(m.jnt_dofadr_of(d));
+            joint_qpos.push(m.jnt_qposadr_of(j));
+        }
+        let (mut passive_qpos, mut passive_dof, mut equalities) = (vec![], vec![], vec![]);
+        for l in &spec.loops {
+            for p in &l.passive {
+                let j = joint(p)?;
+                passive_qpos.push(m.jnt_qposadr_of(j));
+                passive_dof.push(m.jnt_dofadr_of(j));
+            }
+            for e in &l.equality {
+                equalities.push(m.id(ObjType::Equality, e)?);
+            }
+        }
+        let joint_is_passive = (0..spec.motors.len())
+            .map(|i| {
+                if motor_qpos[i] == joint_qpos[i] {
+                    None
+                } else {
+                    passive_qpos.iter().position(|&q| q == joint_qpos[i])
+                }
+            })
+            .collect::<Vec<_>>();
+        for (i, p) in joint_is_passive.iter().enumerate() {
+            if p.is_none() && motor_qpos[i] != joint_qpos[i] {
+                return Err(EnvError::Config(format!(
+                    "{}: motor '{}' drives '{}' but its joint '{}' is in no loop: add it to a [[loops]] passive list",
+                    spec.path.display(),
+                    spec.motors[i].actuator,
+                    spec.motors[i].drives,
+                    spec.motors[i].joint
+                )));
+            }
+        }
+        let key = m.id(ObjType::Key, &spec.stand_keyframe)?;
+        let key_qpos = m.key_qpos(key).to_vec();
+        let nominal_motors = motor_qpos.iter().map(|&a| key_qpos[a]).collect();
+        Ok(Linkage {
+            data: Data::new(m)?,
+            key,
+            motor_qpos,
+            motor_dof,
+            joint_qpos,
+            passive_qpos,
+            passive_dof,
+            joint_is_passive,
+            equalities,
+            nominal_motors,
+        })
+    }
+
+    pub fn n_motors(&self) -> usize {
+        self.motor_qpos.len()
+    }
+
+    /// Motor positions in the stand pose (the keyframe's driven joints).
+    pub fn nominal_motors(&self) -> &[f64] {
+        &self.nominal_motors
+    }
+
+    /// Sets the motors, closes the loops; leaves the data at the closed configuration.
+    fn close(&mut self, motors: &[f64]) -> Result<()> {
+        if motors.len() != self.n_motors() {
+            return Err(EnvError::Shape(format!("{} motor positions for {} motors", motors.len(), self.n_motors())));
+        }
+        self.data.reset_keyframe(self.key)?;
+        for (&a, &q) in self.motor_qpos.iter().zip(motors) {
+            self.data.qpos_mut()[a] = q;
+        }
+        for _ in 0..MAX_ITERATIONS {
+            self.data.fwd_position()?;
+            let (r, jp, _) = self.rows();
+            if r.norm() < CLOSURE_TOL || self.passive_qpos.is_empty() {
+                return Ok(());
+            }
+            let step = jp.pseudo_inverse(1e-12).map_err(|e| EnvError::Config(e.to_string()))? * &r;
+            for (k, &a) in self.passive_qpos.iter().enumerate() {
+                self.data.qpos_mut()[a] -= step[k];
+            }
+        }
+        self.data.fwd_position()?;
+        let (r, _, _) = self.rows();
+        if r.norm() < 1e-9 {
+            return Ok(());
+        }
+        Err(EnvError::Config(format!(
+            "the loops do not close for motor positions {motors:?} (residual {:.2e}): outside the linkage's reach",
+            r.norm()
+        )))
+    }
+
+    /// The loops' equality rows at the current configuration: violations r, and the Jacobian's columns of the
+    /// passive joints (J_p) and of the motors (J_m).
+    fn rows(&self) -> (DVector<f64>, DMatrix<f64>, DMatrix<f64>) {
+        let d = &self.data;
+        let nv = d.model().nv();
+        let jac = d.efc_jacobian().expect("the linkage's model stores its Jacobian dense");
+        let rows: Vec<usize> = (0..d.efc_type().len())
+            .filter(|&i| {
+                d.efc_type()[i] == ffi::mjCNSTR_EQUALITY as i32 && self.equalities.contains(&(d.efc_id()[i] as usize))
+            })
+            .collect();
+        let r = DVector::from_iterator(rows.len(), rows.iter().map(|&i| d.efc_pos()[i]));
+        let cols = |dofs: &[usize]| DMatrix::from_fn(rows.len(), dofs.len(), |i, k| jac[rows[i] * nv + dofs[k]]);
+        (r, cols(&self.passive_dof), cols(&self.motor_dof))
+    }
+
+    /// Kinematic-joint angles for motor positions.
+    pub fn joints(&mut self, motors: &[f64]) -> Result<Vec<f64>> {
+        self.close(motors)?;
+        Ok(self.joint_qpos.iter().map(|&a| self.data.qpos()[a]).collect())
+    }
+
+    /// J = ∂q_joint/∂q_motor at motor positions (n × n): joint velocities are J·q̇_motor. The loops' passive
+    /// velocities follow from the closure, J_p q̇_p + J_m q̇_m = 0.
+    pub fn jacobian(&mut self, motors: &[f64]) -> Result<DMatrix<f64>> {
+        self.close(motors)?;
+        let n = self.n_motors();
+        let (_, jp, jm) = self.rows();
+        let passive = if self.passive_dof.is_empty() {
+            DMatrix::zeros(0, n)
+        } else {
+            -(jp.pseudo_inverse(1e-12).map_err(|e| EnvError::Config(e.to_string()))? * jm)
+        };
+        Ok(DMatrix::from_fn(n, n, |i, k| match self.joint_is_passive[i] {
+            Some(p) => passive[(p, k)],
+            None => {
+                if i == k {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+        }))
+    }
+
+    /// Motor positions for kinematic-joint angles (Newton on `joints`, from the stand pose).
+    pub fn motors(&mut self, joints: &[f64]) -> Result<Vec<f64>> {
+        let mut q = self.nominal_motors.clone();
+        for _ in 0..MAX_ITERATIONS {
+            let f: Vec<f64> = self.joints(&q)?.iter().zip(joints).map(|(a, b)| a - b).collect();
+            if f.iter().map(|x| x * x).sum::<f64>().sqrt() < 1e-12 {
+                return Ok(q);
+            }
+            let j = self.jacobian(&q)?;
+            let step = j
+                .lu()
+                .solve(&DVector::from_vec(f))
+                .ok_or_else(|| EnvError::Config(format!("the linkage is singular at motor positions {q:?}")))?;
+            for (x, s) in q.iter_mut().zip(step.iter()) {
+                *x -= s;
+            }
+        }
+        Err(EnvError::Config(format!("no motor positions reach joint angles {joints:?}")))
+    }
+
+    /// Motor torques that produce joint torques `tau_joint` at motor positions: τ_m = Jᵀ τ_j.
+    pub fn motor_torques(&mut self, motors: &[f64], tau_joint: &[f64]) -> Result<Vec<f64>> {
+        let j = self.jacobian(motors)?;
+        Ok((j.transpose() * DVector::from_column_slice(tau_joint)).iter().copied().collect())
+    }
+}

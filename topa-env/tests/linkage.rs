@@ -1,0 +1,94 @@
+//! Motor↔joint maps computed from the constraints: on TopA's closed chain they reproduce the paper's
+//! M = [[1, 0], [−1, 1]] to 1e-6, the Jacobian matches finite differences of the closed loop, the inverse map
+//! round-trips, torques follow virtual work; on the open model the maps are the identity.
+
+use std::path::Path;
+
+use rand::{RngExt, SeedableRng};
+use topa_env::linkage::Linkage;
+use topa_env::robot::{self, ModelKind, N_MOTORS};
+use topa_env::spec::RobotSpec;
+
+fn linkage(kind: ModelKind) -> (RobotSpec, Linkage) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../assets/robots/{}.toml", kind.robot_name()));
+    let Ok((spec, model)) = RobotSpec::load(&path) else { panic!("{} does not load", path.display()) };
+    let l = Linkage::new(&spec, &model).unwrap();
+    (spec, l)
+}
+
+/// Random motor positions with the ankle joint (ankle motor − knee) inside its range.
+fn random_motors(rng: &mut rand_chacha::ChaCha8Rng) -> Vec<f64> {
+    let nominal = robot::nominal_motors();
+    (0..N_MOTORS)
+        .map(|i| {
+            let spread = if i % robot::N_LEG == robot::ANKLE { 0.3 } else { 0.4 };
+            nominal[i] + rng.random_range(-spread..spread)
+        })
+        .collect()
+}
+
+#[test]
+fn closed_chain_maps_reproduce_the_papers_m() {
+    let (_, mut l) = linkage(ModelKind::Closed);
+    assert_eq!(l.nominal_motors(), robot::nominal_motors().as_slice());
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    for _ in 0..20 {
+        let q: Vec<f64> = random_motors(&mut rng);
+        let arr: [f64; N_MOTORS] = q.clone().try_into().unwrap();
+        let want = robot::motor_to_joint(&arr);
+        let got = l.joints(&q).unwrap();
+        for i in 0..N_MOTORS {
+            assert!((got[i] - want[i]).abs() < 1e-6, "joint {i}: {} vs M·q {}", got[i], want[i]);
+        }
+        let j = l.jacobian(&q).unwrap();
+        for i in 0..N_MOTORS {
+            let e: [f64; N_MOTORS] = std::array::from_fn(|k| if k == i { 1.0 } else { 0.0 });
+            let col = robot::motor_to_joint(&e);
+            for r in 0..N_MOTORS {
+                assert!((j[(r, i)] - col[r]).abs() < 1e-6, "J[{r},{i}] = {} vs M {}", j[(r, i)], col[r]);
+            }
+        }
+        // Torques: τ_m = Jᵀ τ_j, the paper's Mᵀ.
+        let tau_j: Vec<f64> = (0..N_MOTORS).map(|_| rng.random_range(-20.0..20.0)).collect();
+        let tau_m = l.motor_torques(&q, &tau_j).unwrap();
+        let want = robot::joint_to_motor_torque(&<[f64; N_MOTORS]>::try_from(tau_j.clone()).unwrap());
+        for i in 0..N_MOTORS {
+            assert!((tau_m[i] - want[i]).abs() < 1e-5, "τ_m[{i}] {} vs Mᵀτ {}", tau_m[i], want[i]);
+        }
+        // The inverse map round-trips.
+        let back = l.motors(&got).unwrap();
+        for i in 0..N_MOTORS {
+            assert!((back[i] - q[i]).abs() < 1e-9, "motor {i}: {} vs {}", back[i], q[i]);
+        }
+    }
+}
+
+#[test]
+fn jacobian_matches_finite_differences_of_the_closed_loop() {
+    let (_, mut l) = linkage(ModelKind::Closed);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
+    let h = 1e-4;
+    for _ in 0..5 {
+        let q = random_motors(&mut rng);
+        let j = l.jacobian(&q).unwrap();
+        for k in 0..N_MOTORS {
+            let (mut up, mut down) = (q.clone(), q.clone());
+            up[k] += h;
+            down[k] -= h;
+            let (a, b) = (l.joints(&up).unwrap(), l.joints(&down).unwrap());
+            for r in 0..N_MOTORS {
+                let fd = (a[r] - b[r]) / (2.0 * h);
+                assert!((fd - j[(r, k)]).abs() < 1e-6, "∂q_{r}/∂m_{k}: finite difference {fd} vs J {}", j[(r, k)]);
+            }
+        }
+    }
+}
+
+#[test]
+fn open_model_maps_are_the_identity() {
+    let (spec, mut l) = linkage(ModelKind::Open);
+    assert!(spec.loops.is_empty());
+    let q: Vec<f64> = robot::nominal_joints().iter().map(|x| x + 0.1).collect();
+    assert_eq!(l.joints(&q).unwrap(), q);
+    assert_eq!(l.jacobian(&q).unwrap(), nalgebra::DMatrix::identity(N_MOTORS, N_MOTORS));
+}
