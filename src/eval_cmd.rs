@@ -245,7 +245,7 @@ mod tests {
         for f in ["seed2.json", "seed1.json", "seed1.safetensors", "README.md"] {
             std::fs::write(dir.join(f), "").unwrap();
         }
-        let files = policy_files("c", &[dir.clone()]).unwrap();
+        let files = policy_files("c", std::slice::from_ref(&dir)).unwrap();
         assert_eq!(files, vec![dir.join("seed1.json"), dir.join("seed2.json")]);
         let err = policy_files("ca", &[dir.join("nope.json")]).unwrap_err().to_string();
         assert!(err.contains("--ca") && err.contains("nope.json"), "{err}");

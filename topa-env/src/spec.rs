@@ -221,7 +221,8 @@ fn resolve(raw: &Raw, src: &Source, path: &Path, mjcf: PathBuf) -> Result<RobotS
             return Err(src
                 .at(m.nominal.span(), format!("nominal {} is outside joint_range [{lo}, {hi}]", m.nominal.get_ref())));
         }
-        if !(*m.torque_limit.get_ref() > 0.0) {
+        let t = *m.torque_limit.get_ref();
+        if !(t.is_finite() && t > 0.0) {
             return Err(src.at(m.torque_limit.span(), "torque_limit must be positive (N·m)"));
         }
         motors.push(Motor {
