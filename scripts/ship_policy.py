@@ -3,7 +3,9 @@
 
 The JSON sidecar keeps the run's provenance (command, config, seed, iterations, samples, wall time); only the
 name of the weights file changes, and the weights' CRC is checked so nothing is shipped that the loader rejects.
-Usage: scripts/ship_policy.py runs/C C
+Run folders may live anywhere (e.g. under the home folder): the recorded command names them as runs/<folder>,
+so no machine's paths end up in the repository. NAME may name a subfolder (C/seed1 for a group's seed).
+Usage: scripts/ship_policy.py ~/runs/C-s1 C/seed1
 """
 import json
 import shutil
@@ -16,13 +18,19 @@ meta = json.loads((run / "policy.json").read_text())
 weights = (run / meta["weights"]).read_bytes()
 if zlib.crc32(weights) != meta["weights_crc32"]:
     sys.exit(f"{run}/{meta['weights']} does not match its sidecar's CRC: re-export the run")
-dest = Path(__file__).resolve().parent.parent / "assets" / "policies"
+root = Path(__file__).resolve().parent.parent / "assets" / "policies"
+dest = (root / name).parent
+stem = Path(name).name
 dest.mkdir(parents=True, exist_ok=True)
-shutil.copyfile(run / meta["weights"], dest / f"{name}.safetensors")
-meta["weights"] = f"{name}.safetensors"
-tmp = dest / f".{name}.json.tmp"
+shutil.copyfile(run / meta["weights"], dest / f"{stem}.safetensors")
+meta["weights"] = f"{stem}.safetensors"
+# Where the runs lived on the training machine is nobody's business: runs/<folder> in the record.
+runs_dir = str(run.resolve().parent)
+p = meta["provenance"]
+p["command"] = p["command"].replace(runs_dir + "/", "runs/")
+tmp = dest / f".{stem}.json.tmp"
 tmp.write_text(json.dumps(meta, indent=2) + "\n")
-tmp.replace(dest / f"{name}.json")
+tmp.replace(dest / f"{stem}.json")
 p = meta["provenance"]
 print(f"{name}: {p['iterations']} iterations, {p['samples']} samples, {p['wall_time_s'] / 3600:.2f} h, "
       f"seed {p['seed']}, trained on {p['trained_on']}\n  {p['command']}")
