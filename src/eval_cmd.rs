@@ -5,6 +5,8 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 
+use topa_env::IntegratorChoice;
+
 use crate::eval::ablate::{self, Extent};
 use crate::eval::{noise, push, report, tracking, EvalSettings, PolicyRunner};
 
@@ -25,7 +27,7 @@ pub struct Common {
     pub sim2sim: String,
     /// Integrator: model (the MJCF's RK4), euler, rk4, implicit.
     #[arg(long, global = true, default_value = "model")]
-    pub integrator: String,
+    pub integrator: IntegratorChoice,
     /// Seed for the noise runs and env set-up.
     #[arg(long, global = true, default_value_t = 1)]
     pub seed: u64,
@@ -38,7 +40,7 @@ impl Common {
     pub fn settings(&self) -> Result<EvalSettings> {
         EvalSettings {
             timestep: self.timestep,
-            integrator: self.integrator.clone(),
+            integrator: self.integrator,
             seed: self.seed,
             threads: self.threads,
             ..Default::default()

@@ -156,7 +156,7 @@ enum BenchCmd {
         threads: Vec<usize>,
         /// Integrator: model (the MJCF's RK4), euler, rk4, implicit.
         #[arg(long, default_value = "model")]
-        integrator: String,
+        integrator: topa_env::IntegratorChoice,
         /// Seconds per measurement.
         #[arg(long, default_value_t = 2.0)]
         seconds: f64,
@@ -240,7 +240,7 @@ enum BenchCmd {
         warmup: usize,
         /// Override the preset's integrator (euler, rk4, model, implicit).
         #[arg(long)]
-        integrator: Option<String>,
+        integrator: Option<topa_env::IntegratorChoice>,
         /// Interleaved rounds (the fastest of each thread count is kept).
         #[arg(long, default_value_t = 2)]
         rounds: usize,
@@ -352,7 +352,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
         }
         Cmd::Bench(BenchCmd::Env { model, envs, threads, integrator, seconds, rounds }) => {
-            bench::env::run(model, &envs, &threads, &integrator, seconds, rounds)
+            bench::env::run(model, &envs, &threads, integrator, seconds, rounds)
         }
     }
 }

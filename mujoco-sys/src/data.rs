@@ -176,12 +176,14 @@ impl Data {
     /// First half of a step (positions and velocities), so controls can depend on them.
     pub fn step1(&mut self) -> Result<()> {
         let (m, d) = self.parts();
+        // SAFETY: d was made for m; the call is guarded.
         guarded("mj_step1", |e, n| unsafe { guard::mjs_step1(m, d, e, n) })
     }
 
     /// Second half of a step (forces, acceleration, integration).
     pub fn step2(&mut self) -> Result<()> {
         let (m, d) = self.parts();
+        // SAFETY: d was made for m; the call is guarded.
         let r = guarded("mj_step2", |e, n| unsafe { guard::mjs_step2(m, d, e, n) });
         self.check_capacity("mj_step2", r)
     }
@@ -189,6 +191,7 @@ impl Data {
     /// Computes everything derived from the state without integrating (`mj_forward`).
     pub fn forward(&mut self) -> Result<()> {
         let (m, d) = self.parts();
+        // SAFETY: d was made for m; the call is guarded.
         let r = guarded("mj_forward", |e, n| unsafe { guard::mjs_forward(m, d, e, n) });
         self.check_capacity("mj_forward", r)
     }
@@ -266,6 +269,7 @@ impl Data {
     /// Back to `qpos0`, zero velocity, zero controls, warnings cleared.
     pub fn reset(&mut self) -> Result<()> {
         let (m, d) = self.parts();
+        // SAFETY: d was made for m; the call is guarded.
         guarded("mj_resetData", |e, n| unsafe { guard::mjs_reset_data(m, d, e, n) })
     }
 
@@ -279,6 +283,7 @@ impl Data {
             )));
         }
         let (m, d) = self.parts();
+        // SAFETY: d was made for m and `key` was checked against nkey above; the call is guarded.
         guarded("mj_resetDataKeyframe", |e, n| unsafe { guard::mjs_reset_data_keyframe(m, d, key as i32, e, n) })
     }
 
@@ -363,21 +368,25 @@ impl Data {
     /// Constraint row types (`mjtConstraint`) of the current constraint set (nefc rows).
     pub fn efc_type(&self) -> &[i32] {
         let d = self.raw();
+        // SAFETY: efc_type holds nefc entries after the last forward/step; the view lives as long as &self.
         unsafe { view(d.efc_type, d.nefc as usize) }
     }
     /// Object id of each constraint row (equality id for equality rows).
     pub fn efc_id(&self) -> &[i32] {
         let d = self.raw();
+        // SAFETY: as for efc_type.
         unsafe { view(d.efc_id, d.nefc as usize) }
     }
     /// Constraint violation of each row.
     pub fn efc_pos(&self) -> &[f64] {
         let d = self.raw();
+        // SAFETY: as for efc_type.
         unsafe { view(d.efc_pos, d.nefc as usize) }
     }
     /// Constraint force of each row.
     pub fn efc_force(&self) -> &[f64] {
         let d = self.raw();
+        // SAFETY: as for efc_type.
         unsafe { view(d.efc_force, d.nefc as usize) }
     }
 

@@ -100,6 +100,7 @@ pub(crate) fn init() -> Result<()> {
 
 /// The library version string, e.g. "2.2.2".
 pub fn version_string() -> String {
+    // SAFETY: mj_version reads a constant; it has no preconditions.
     let v = unsafe { crate::ffi::mj_version() };
     format!("{}.{}.{}", v / 100, v / 10 % 10, v % 10)
 }

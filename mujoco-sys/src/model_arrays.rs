@@ -17,6 +17,10 @@ pub(crate) unsafe fn view<'a, T, S>(ptr: *const S, count: usize) -> &'a [T] {
 }
 
 /// Mutable counterpart of [`view`]; same contract, and no other reference may alias the array.
+///
+/// # Safety
+/// `ptr` must point to `count` valid, initialised values of `T`'s layout that outlive `'a`, with no other live
+/// reference to them.
 pub(crate) unsafe fn view_mut<'a, T, S>(ptr: *mut S, count: usize) -> &'a mut [T] {
     if count == 0 || ptr.is_null() {
         &mut []

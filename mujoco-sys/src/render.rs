@@ -15,7 +15,7 @@ use crate::{Data, Model};
 const MAX_GEOM: i32 = 2000;
 
 /// Rendering quality. On a software OpenGL (Mesa's llvmpipe, no GPU) `High` costs ~150 ms a 640×480 frame on
-/// 2 cores and `Fast` ~15 ms (measured with `topa bench render`).
+/// 2 cores and `Fast` ~15 ms (measured by the application's render benchmark).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Quality {
     /// No multisampling, one quad per plane, no shadows, no reflections.
@@ -85,6 +85,8 @@ impl Renderer {
             301..=600 => ffi::mjFONTSCALE_100,
             _ => ffi::mjFONTSCALE_150,
         };
+        // SAFETY: a GL context is current (made above) and `con` is a default-initialised mjrContext; the call is
+        // guarded (no usable OpenGL raises mju_error, which returns here as an error).
         let made = guarded("mjr_makeContext", |e, n| unsafe { guard::mjs_make_context(m, con, font as i32, e, n) });
         let mut r = Renderer {
             model,

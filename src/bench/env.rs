@@ -54,12 +54,12 @@ pub fn run(
     kind: ModelKind,
     envs: &[usize],
     threads: &[usize],
-    integrator: &str,
+    integrator: topa_env::IntegratorChoice,
     seconds: f64,
     rounds: usize,
 ) -> Result<()> {
     let mut cfg = EnvConfig { model: kind, ..EnvConfig::default() };
-    cfg.integrator = integrator.to_string();
+    cfg.integrator = integrator;
     // Best of `rounds` for every measurement, the rounds interleaved, so a burst of load from other tenants of
     // this machine hits all configurations alike rather than one.
     let configs: Vec<(usize, usize)> = envs.iter().flat_map(|&n| threads.iter().map(move |&t| (n, t))).collect();

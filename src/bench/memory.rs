@@ -67,7 +67,7 @@ fn measure(cfg: &EnvConfig, n: usize, steps: usize, policy: Option<&mut Policy>,
 pub fn run(envs: usize, steps: usize, policy: &std::path::Path) -> Result<()> {
     let mut cfg = EnvConfig { model: ModelKind::Closed, ..EnvConfig::default() };
     // The training preset's physics and the paper's pushes (up to 2.5 m/s): the hardest contacts training sees.
-    cfg.integrator = "euler".into();
+    cfg.integrator = topa_env::IntegratorChoice::Euler;
     let (rss0, faults0) = rss_and_faults();
     let start = Instant::now();
     let mut v = assets::topa_batch(&cfg, envs, 1, 0)?;
@@ -99,9 +99,9 @@ pub fn run(envs: usize, steps: usize, policy: &std::path::Path) -> Result<()> {
     println!("| integrator | episodes | stack (mjtNum) | contacts | constraint rows |");
     println!("|---|---|---:|---:|---:|");
     let mut worst = Use::default();
-    for integ in ["euler", "rk4"] {
+    for integ in [topa_env::IntegratorChoice::Euler, topa_env::IntegratorChoice::Rk4] {
         let mut c = cfg.clone();
-        c.integrator = integ.into();
+        c.integrator = integ;
         c.push.velocity = [0.0, 2.5];
         let walking = measure(&c, 64, steps, Some(&mut p), 0.0)?;
         let falling = measure(&c, 64, steps, None, 3.0)?;

@@ -46,7 +46,7 @@ pub struct Args<'a> {
     pub envs: Option<usize>,
     pub iterations: usize,
     pub warmup: usize,
-    pub integrator: Option<String>,
+    pub integrator: Option<topa_env::IntegratorChoice>,
     /// Interleaved rounds over the thread counts; the fastest round of each count is kept (the machine is shared).
     pub rounds: usize,
 }
@@ -60,7 +60,7 @@ pub fn worker(a: &Args, threads: usize) -> Result<WorkerResult> {
         cfg.run.num_envs = n;
     }
     if let Some(i) = &a.integrator {
-        env_cfg.integrator = i.clone();
+        env_cfg.integrator = *i;
         cfg.env = env_cfg.to_table();
     }
     let standing = super::env::physics_steps_per_second(&env_cfg, 2.0)?;
@@ -119,7 +119,7 @@ fn run_worker(a: &Args, threads: usize) -> Result<WorkerResult> {
         cmd.args(["--envs", &n.to_string()]);
     }
     if let Some(i) = &a.integrator {
-        cmd.args(["--integrator", i]);
+        cmd.args(["--integrator", i.name()]);
     }
     let out = cmd.output()?;
     if !out.status.success() {
@@ -133,7 +133,7 @@ fn run_worker(a: &Args, threads: usize) -> Result<WorkerResult> {
 pub fn run(a: &Args) -> Result<()> {
     let (cfg, env_cfg) = crate::train_cmd::load_config(a.config)?;
     let envs = a.envs.unwrap_or(cfg.run.num_envs);
-    let integ = a.integrator.clone().unwrap_or(env_cfg.integrator.clone());
+    let integ = a.integrator.unwrap_or(env_cfg.integrator);
     println!(
         "{}: {envs} envs × {} steps, integrator {integ}, timestep {} s × {}; {} timed iterations after {} warm-up, \
          best of {} interleaved rounds\n",

@@ -32,8 +32,8 @@ pub struct EvalSettings {
     pub sim2sim_mode: String,
     /// The sensor, estimator, latency and motor models (all off: ideal).
     pub sim2sim: Sim2SimConfig,
-    /// "model" = the MJCF's RK4, which keeps the linkage exact.
-    pub integrator: String,
+    /// Model = the MJCF's RK4, which keeps the linkage exact.
+    pub integrator: topa_env::IntegratorChoice,
     /// Standing still on a zero command before each experiment starts, s.
     pub settle_s: f64,
     /// Worker threads (0 = all cores).
@@ -77,7 +77,7 @@ impl Default for EvalSettings {
             timestep: None,
             sim2sim_mode: "ideal".into(),
             sim2sim: Sim2SimConfig::default(),
-            integrator: "model".into(),
+            integrator: topa_env::IntegratorChoice::Model,
             settle_s: 2.0,
             threads: 0,
             seed: 1,
@@ -124,7 +124,7 @@ impl PolicyRunner {
         let train = EnvConfig::from_table(&self.policy.meta.provenance.config.env)?;
         let mut c = train.for_evaluation();
         c.model = ModelKind::Closed;
-        c.integrator = s.integrator.clone();
+        c.integrator = s.integrator;
         c.timestep = s.timestep();
         c.sim2sim = s.sim2sim.clone();
         let dec = self.policy.meta.policy_dt / c.timestep;

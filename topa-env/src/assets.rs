@@ -58,7 +58,7 @@ pub fn topa_batch_from(
     cfg.validate()?;
     // Apply the timestep and integrator once, so the envs share one model until randomisation copies it.
     let mut model = model;
-    if let Some(i) = cfg.integrator()? {
+    if let Some(i) = cfg.integrator() {
         Arc::make_mut(&mut model).set_integrator(i);
     }
     Arc::make_mut(&mut model).set_timestep(cfg.timestep)?;

@@ -21,7 +21,7 @@ pub struct EnvConfig {
     /// Integrator override: "model" keeps the MJCF's (RK4: the loop stays within 3e-4 rad under any motor
     /// targets), "euler" is ~3.5× faster per step (loop error up to ~1e-2 rad on hard-stop impacts), "rk4",
     /// "implicit".
-    pub integrator: String,
+    pub integrator: IntegratorChoice,
     /// Episode length before a time-out, s.
     pub episode_length_s: f64,
     /// Motor target = nominal + action_scale · action (rad per unit action).
@@ -39,6 +39,54 @@ pub struct EnvConfig {
     pub sim2sim: crate::sim2sim::Sim2SimConfig,
     /// How far the cyclic adversary may perturb (its channels' bounds).
     pub adversary: AdversaryBounds,
+}
+
+/// Which integrator the env runs: the MJCF's own, or an override.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum IntegratorChoice {
+    #[default]
+    Model,
+    Euler,
+    Rk4,
+    Implicit,
+}
+
+impl IntegratorChoice {
+    pub fn name(self) -> &'static str {
+        match self {
+            IntegratorChoice::Model => "model",
+            IntegratorChoice::Euler => "euler",
+            IntegratorChoice::Rk4 => "rk4",
+            IntegratorChoice::Implicit => "implicit",
+        }
+    }
+    /// The override, or None to keep the model's.
+    pub fn resolve(self) -> Option<mujoco_sys::Integrator> {
+        use mujoco_sys::Integrator;
+        match self {
+            IntegratorChoice::Model => None,
+            IntegratorChoice::Euler => Some(Integrator::Euler),
+            IntegratorChoice::Rk4 => Some(Integrator::Rk4),
+            IntegratorChoice::Implicit => Some(Integrator::Implicit),
+        }
+    }
+}
+
+impl std::str::FromStr for IntegratorChoice {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        [IntegratorChoice::Model, IntegratorChoice::Euler, IntegratorChoice::Rk4, IntegratorChoice::Implicit]
+            .into_iter()
+            .find(|i| i.name() == s)
+            .ok_or_else(|| format!("integrator '{s}' is unknown: use model, euler, rk4 or implicit"))
+    }
+}
+
+impl std::fmt::Display for IntegratorChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -81,7 +129,7 @@ impl Default for EnvConfig {
             model: ModelKind::Closed,
             timestep: 0.005,
             decimation: 4,
-            integrator: "model".into(),
+            integrator: IntegratorChoice::Model,
             episode_length_s: 20.0,
             action_scale: 0.25,
             action_clip: 10.0,
@@ -366,7 +414,6 @@ impl EnvConfig {
     /// Rejects values the env cannot run with, naming the key.
     pub fn validate(&self) -> Result<()> {
         check_positive("timestep", self.timestep)?;
-        self.integrator()?;
         if self.decimation == 0 {
             return Err(EnvError::Config("decimation must be at least 1".into()));
         }
@@ -415,17 +462,8 @@ impl EnvConfig {
     }
 
     /// The integrator to set on the model, or None to keep the model's.
-    pub fn integrator(&self) -> Result<Option<mujoco_sys::Integrator>> {
-        use mujoco_sys::Integrator;
-        match self.integrator.as_str() {
-            "model" => Ok(None),
-            "euler" => Ok(Some(Integrator::Euler)),
-            "rk4" => Ok(Some(Integrator::Rk4)),
-            "implicit" => Ok(Some(Integrator::Implicit)),
-            other => Err(EnvError::Config(format!(
-                "integrator '{other}' is unknown: use \"model\", \"euler\", \"rk4\" or \"implicit\""
-            ))),
-        }
+    pub fn integrator(&self) -> Option<mujoco_sys::Integrator> {
+        self.integrator.resolve()
     }
 
     /// Whether the env reads MuJoCo's sensors (the IMU). The paper's observation comes from the simulator's state,

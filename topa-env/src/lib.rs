@@ -18,7 +18,7 @@ pub mod task;
 pub mod tasks;
 pub mod vec_env;
 
-pub use config::{EnvConfig, TaskKind};
+pub use config::{EnvConfig, IntegratorChoice, TaskKind};
 pub use env::TopaEnv;
 pub use error::{EnvError, Result};
 pub use indices::RobotIndices;

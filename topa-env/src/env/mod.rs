@@ -93,7 +93,7 @@ impl TopaEnv {
         seed: u64,
         index: u64,
     ) -> Result<Self> {
-        let integrator = cfg.integrator()?;
+        let integrator = cfg.integrator();
         if model.timestep() != cfg.timestep
             || integrator.is_some_and(|i| i != model.integrator())
             || model.sensors_enabled() != cfg.needs_sensors()

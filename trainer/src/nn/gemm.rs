@@ -138,6 +138,9 @@ impl PackedB {
 }
 
 /// Packs `B[0..kc, 0..n]` into `n/NR` panels of `kc × NR` (zero-padded columns).
+///
+/// # Safety
+/// `b` must be readable over `kc × n` at its strides and `dst` writable for `n.div_ceil(NR) · kc · NR` floats.
 unsafe fn pack_b_block(kc: usize, n: usize, b: MatRef, dst: *mut f32) {
     let panels = n.div_ceil(NR);
     if b.cs == 1 {
@@ -185,6 +188,9 @@ unsafe fn pack_b_block(kc: usize, n: usize, b: MatRef, dst: *mut f32) {
 }
 
 /// Packs `A[0..mc, 0..kc]` into panels of `MR` rows (`kc × MR` each, rows past `mc` zero).
+///
+/// # Safety
+/// `a` must be readable over `mc × kc` at its strides and `dst` writable for `mc.div_ceil(MR) · kc · MR` floats.
 unsafe fn pack_a_block(mc: usize, kc: usize, a: MatRef, dst: *mut f32) {
     for ip in 0..mc.div_ceil(MR) {
         let i0 = ip * MR;
@@ -271,6 +277,10 @@ pub(crate) unsafe fn matmul(
 }
 
 /// The `gemm` crate, then the epilogue as a separate pass.
+///
+/// # Safety
+/// As [`matmul`]: `a`, `b` readable over their shapes at their strides, `c` writable over `m × n` with row stride
+/// `ldc`, and no overlap between `c` and the inputs.
 #[allow(clippy::too_many_arguments)]
 unsafe fn fallback(
     m: usize,
@@ -325,6 +335,9 @@ mod avx2 {
     use std::arch::x86_64::*;
 
     /// ELU on 8 lanes: the same operations, in the same order, as [`kernels::elu`] (bit-identical results).
+    ///
+    /// # Safety
+    /// The CPU must have AVX2 and FMA (callers are `target_feature(enable = "avx2,fma")` functions).
     #[inline(always)]
     unsafe fn elu8(z: __m256) -> __m256 {
         let zc = _mm256_max_ps(_mm256_min_ps(z, _mm256_setzero_ps()), _mm256_set1_ps(-87.0));
@@ -359,6 +372,9 @@ mod avx2 {
 
     /// The 6×16 kernel: `C[0..mr, 0..nr] (+)= A·B` over `kc`, with `A(ii, p)` at `a + ii·ars + p·acs` (rows
     /// past `mr` read row `mr − 1`, results discarded) and `B` a packed `kc × 16` panel; then the epilogue.
+    ///
+    /// # Safety
+    /// AVX2 and FMA present; `a` readable over `mr × kc`, `b` over `kc × 16`, `c` writable over `mr × nr`.
     #[target_feature(enable = "avx2,fma")]
     #[allow(clippy::too_many_arguments)]
     unsafe fn kernel(
@@ -465,6 +481,10 @@ mod avx2 {
 
     /// Blocked product: for each block of [`MC`] rows of `A`, for each k-block, for each panel of `B`, for each
     /// `MR` rows: the kernel. `A` is read in place when its rows are contiguous (cs = 1), else packed per block.
+    ///
+    /// # Safety
+    /// AVX2 and FMA present (checked by the caller); `a`, `b` readable over their shapes at their strides, `c`
+    /// writable over `m × n` with row stride `ldc`, and `c` overlapping neither input.
     #[target_feature(enable = "avx2,fma")]
     #[allow(clippy::too_many_arguments)]
     pub(super) unsafe fn matmul(

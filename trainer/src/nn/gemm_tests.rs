@@ -6,6 +6,7 @@ fn naive(m: usize, n: usize, k: usize, a: MatRef, b: MatRef) -> Vec<f64> {
     for i in 0..m {
         for j in 0..n {
             for p in 0..k {
+                // SAFETY: i < m, p < k, j < n: inside both matrices.
                 c[i * n + j] += unsafe { a.at(i, p) as f64 * b.at(p, j) as f64 };
             }
         }
@@ -30,6 +31,7 @@ fn matches_naive_for_all_layouts_and_edges() {
                 for i in 0..m {
                     c[i * ldc..i * ldc + n].copy_from_slice(&cv[i * n..(i + 1) * n]);
                 }
+                // SAFETY: a, b and c were allocated with the shapes and strides passed; c overlaps neither input.
                 unsafe { matmul(m, n, k, a, b, c.as_mut_ptr(), ldc, accumulate, Epilogue::None) };
                 for i in 0..m {
                     for j in 0..n {
@@ -54,6 +56,7 @@ fn epilogue_matches_separate_pass() {
     for act in [Activation::Elu, Activation::Identity] {
         let mut fused = vec![0.0f32; m * n];
         let mut plain = vec![0.0f32; m * n];
+        // SAFETY: buffers allocated with the shapes and strides passed; outputs overlap no input.
         unsafe {
             matmul(m, n, k, a, b, fused.as_mut_ptr(), n, false, Epilogue::BiasAct(&bias, act));
             matmul(m, n, k, a, b, plain.as_mut_ptr(), n, false, Epilogue::None);
