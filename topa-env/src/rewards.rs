@@ -6,24 +6,79 @@ use crate::robot::{ANKLE, HIP_ROLL, HIP_YAW, N_LEG, N_MOTORS};
 
 pub const N_TERMS: usize = 15;
 
-/// Term names, in the paper's table order (also the order of logs and CSV columns).
-pub const TERM_NAMES: [&str; N_TERMS] = [
-    "lin_vel_xy_tracking",
-    "ang_vel_z_tracking",
-    "lin_vel_z",
-    "ang_vel_xy",
-    "orientation",
-    "body_height",
-    "action_rate",
-    "hip_roll_deviation",
-    "hip_yaw_deviation",
-    "ankle_pitch_deviation",
-    "joint_position_limits",
-    "motor_torque_limits",
-    "feet_slip",
-    "feet_air_time",
-    "feet_clearance",
+/// One reward term: its name (log and CSV column), its weight in the config, its equation (the unweighted value).
+pub struct Term {
+    pub name: &'static str,
+    pub weight: fn(&RewardConfig) -> f64,
+    pub value: fn(&RewardConfig, &RewardInputs) -> f64,
+}
+
+/// The terms in the paper's table order, then ours; one row each, so a name, a weight and an equation cannot
+/// drift apart.
+pub const TERMS: [Term; N_TERMS] = [
+    Term {
+        name: "lin_vel_xy_tracking",
+        weight: |c| c.lin_vel_xy_tracking,
+        value: |c, x| kernel(sq(x.command[0] - x.lin_vel[0]) + sq(x.command[1] - x.lin_vel[1]), c.sigma_v),
+    },
+    Term {
+        name: "ang_vel_z_tracking",
+        weight: |c| c.ang_vel_z_tracking,
+        value: |c, x| kernel(sq(x.command[2] - x.ang_vel[2]), c.sigma_w),
+    },
+    Term { name: "lin_vel_z", weight: |c| c.lin_vel_z, value: |_, x| sq(x.lin_vel[2]) },
+    Term { name: "ang_vel_xy", weight: |c| c.ang_vel_xy, value: |_, x| sq(x.ang_vel[0]) + sq(x.ang_vel[1]) },
+    Term {
+        name: "orientation",
+        weight: |c| c.orientation,
+        value: |c, x| kernel(sq(x.gravity[0]) + sq(x.gravity[1]), c.sigma_g),
+    },
+    Term {
+        name: "body_height",
+        weight: |c| c.body_height,
+        value: |c, x| kernel(sq(c.base_height_target - x.base_height), c.sigma_h),
+    },
+    Term {
+        name: "action_rate",
+        weight: |c| c.action_rate,
+        value: |_, x| x.action.iter().zip(&x.last_action).map(|(a, b)| sq(a - b)).sum(),
+    },
+    Term {
+        name: "hip_roll_deviation",
+        weight: |c| c.hip_roll_deviation,
+        value: |c, x| kernel(both_legs(&x.joint_dev, HIP_ROLL), c.sigma_roll),
+    },
+    Term {
+        name: "hip_yaw_deviation",
+        weight: |c| c.hip_yaw_deviation,
+        value: |c, x| kernel(both_legs(&x.joint_dev, HIP_YAW), c.sigma_yaw),
+    },
+    Term {
+        name: "ankle_pitch_deviation",
+        weight: |c| c.ankle_pitch_deviation,
+        value: |c, x| kernel(both_legs(&x.joint_dev, ANKLE), c.sigma_pitch),
+    },
+    Term { name: "joint_position_limits", weight: |c| c.joint_position_limits, value: |_, x| joint_limits(x) },
+    Term { name: "motor_torque_limits", weight: |c| c.motor_torque_limits, value: |_, x| torque_limits(x) },
+    Term {
+        name: "feet_slip",
+        weight: |c| c.feet_slip,
+        value: |_, x| (0..2).filter(|&f| x.foot_contact[f]).map(|f| x.foot_speed[f]).sum(),
+    },
+    Term { name: "feet_air_time", weight: |c| c.feet_air_time, value: air_time },
+    Term { name: "feet_clearance", weight: |c| c.feet_clearance, value: clearance },
 ];
+
+/// Term names, in table order (also the order of logs and CSV columns).
+pub const TERM_NAMES: [&str; N_TERMS] = {
+    let mut names = [""; N_TERMS];
+    let mut i = 0;
+    while i < N_TERMS {
+        names[i] = TERMS[i].name;
+        i += 1;
+    }
+    names
+};
 
 /// What the rewards look at, all in SI units; velocities in the robot (torso) frame.
 #[derive(Debug, Clone, Default)]
@@ -72,76 +127,63 @@ fn both_legs(dev: &[f64; N_MOTORS], dof: usize) -> f64 {
     sq(dev[dof]) + sq(dev[N_LEG + dof])
 }
 
-/// The unweighted value of each term (the paper's "Equation" column).
-pub fn raw_terms(c: &RewardConfig, x: &RewardInputs) -> [f64; N_TERMS] {
-    let relu = |v: f64| v.max(0.0);
-    let limits: f64 = (0..N_MOTORS)
+fn relu(v: f64) -> f64 {
+    v.max(0.0)
+}
+
+fn joint_limits(x: &RewardInputs) -> f64 {
+    (0..N_MOTORS)
         .map(|i| relu(x.joint_pos[i] - x.joint_soft_limits[i][1]) + relu(x.joint_soft_limits[i][0] - x.joint_pos[i]))
-        .sum();
-    let torque: f64 = (0..N_MOTORS).map(|i| relu(x.motor_torque[i].abs() - x.torque_soft_limit[i])).sum();
-    let slip: f64 = (0..2).filter(|&f| x.foot_contact[f]).map(|f| x.foot_speed[f]).sum();
-    let moving = x.command.iter().map(|v| v * v).sum::<f64>().sqrt() > 0.1;
-    let air_term = |t: f64| match c.air_time_form {
+        .sum()
+}
+
+fn torque_limits(x: &RewardInputs) -> f64 {
+    (0..N_MOTORS).map(|i| relu(x.motor_torque[i].abs() - x.torque_soft_limit[i])).sum()
+}
+
+/// A motion is commanded (yaw included, so that turning in place steps too).
+fn moving(x: &RewardInputs) -> bool {
+    x.command.iter().map(|v| v * v).sum::<f64>().sqrt() > 0.1
+}
+
+fn air_time(c: &RewardConfig, x: &RewardInputs) -> f64 {
+    let at_touchdown = |t: f64| match c.air_time_form {
         AirTimeForm::Abs => (t - c.air_time_target).abs(),
-        AirTimeForm::Signed if moving => t - c.air_time_target,
+        AirTimeForm::Signed if moving(x) => t - c.air_time_target,
         AirTimeForm::Signed => 0.0,
         AirTimeForm::NegAbs => -(t - c.air_time_target).abs(),
         AirTimeForm::PositiveBiped => 0.0,
     };
-    let air: f64 = match c.air_time_form {
+    match c.air_time_form {
         // Every step of single stance pays the shorter of the two feet's time in their mode, capped at the target.
         AirTimeForm::PositiveBiped => {
             let single = x.foot_contact[0] != x.foot_contact[1];
-            if single && moving {
+            if single && moving(x) {
                 x.mode_time[0].min(x.mode_time[1]).min(c.air_time_target)
             } else {
                 0.0
             }
         }
-        _ => (0..2).filter(|&f| x.touchdown[f]).map(|f| air_term(x.air_time[f])).sum(),
-    };
-    // A foot that moves over the ground below the target height is a shuffle; weighting by tanh(2‖v‖) leaves a
-    // foot at rest (stance) free, as IsaacLab's foot-clearance reward does.
+        _ => (0..2).filter(|&f| x.touchdown[f]).map(|f| at_touchdown(x.air_time[f])).sum(),
+    }
+}
+
+/// A foot that moves over the ground below the target height is a shuffle; weighting by tanh(2‖v‖) leaves a foot
+/// at rest (stance) free, as IsaacLab's foot-clearance reward does.
+fn clearance(c: &RewardConfig, x: &RewardInputs) -> f64 {
     let low: f64 =
         (0..2).map(|f| sq((c.clearance_target - x.foot_height[f]).max(0.0)) * (2.0 * x.foot_speed[f]).tanh()).sum();
-    [
-        kernel(sq(x.command[0] - x.lin_vel[0]) + sq(x.command[1] - x.lin_vel[1]), c.sigma_v),
-        kernel(sq(x.command[2] - x.ang_vel[2]), c.sigma_w),
-        sq(x.lin_vel[2]),
-        sq(x.ang_vel[0]) + sq(x.ang_vel[1]),
-        kernel(sq(x.gravity[0]) + sq(x.gravity[1]), c.sigma_g),
-        kernel(sq(c.base_height_target - x.base_height), c.sigma_h),
-        x.action.iter().zip(&x.last_action).map(|(a, b)| sq(a - b)).sum(),
-        kernel(both_legs(&x.joint_dev, HIP_ROLL), c.sigma_roll),
-        kernel(both_legs(&x.joint_dev, HIP_YAW), c.sigma_yaw),
-        kernel(both_legs(&x.joint_dev, ANKLE), c.sigma_pitch),
-        limits,
-        torque,
-        slip,
-        air,
-        kernel(low, c.sigma_clearance),
-    ]
+    kernel(low, c.sigma_clearance)
+}
+
+/// The unweighted value of each term (the paper's "Equation" column).
+pub fn raw_terms(c: &RewardConfig, x: &RewardInputs) -> [f64; N_TERMS] {
+    std::array::from_fn(|i| (TERMS[i].value)(c, x))
 }
 
 /// The weights, in term order.
 pub fn weights(c: &RewardConfig) -> [f64; N_TERMS] {
-    [
-        c.lin_vel_xy_tracking,
-        c.ang_vel_z_tracking,
-        c.lin_vel_z,
-        c.ang_vel_xy,
-        c.orientation,
-        c.body_height,
-        c.action_rate,
-        c.hip_roll_deviation,
-        c.hip_yaw_deviation,
-        c.ankle_pitch_deviation,
-        c.joint_position_limits,
-        c.motor_torque_limits,
-        c.feet_slip,
-        c.feet_air_time,
-        c.feet_clearance,
-    ]
+    std::array::from_fn(|i| (TERMS[i].weight)(c))
 }
 
 /// Weighted terms (weight × equation × `scale`) into `out`; returns their sum, the step reward.
