@@ -18,7 +18,7 @@ use std::path::Path;
 
 use anyhow::{bail, ensure, Context, Result};
 use prost::Message;
-use topa_env::env::{OBS_ANG_VEL, OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_LIN_VEL, OBS_Q, OBS_QD};
+use topa_env::observation::{OBS_DIM, OBS_LAST_ACTION, OBS_Q, OBS_QD};
 use topa_env::robot::{self, ModelKind, N_MOTORS};
 use tract_onnx::pb;
 use trainer::policy_file::Policy;
@@ -32,15 +32,7 @@ const DOUBLE: i32 = 11;
 
 /// The observation blocks (name, offset, size), as the metadata lists them.
 pub fn observation_layout() -> Vec<(&'static str, usize, usize)> {
-    vec![
-        ("base_linear_velocity", OBS_LIN_VEL, 3),
-        ("base_angular_velocity", OBS_ANG_VEL, 3),
-        ("projected_gravity", OBS_GRAVITY, 3),
-        ("motor_position_minus_nominal", OBS_Q, N_MOTORS),
-        ("motor_velocity", OBS_QD, N_MOTORS),
-        ("previous_action", OBS_LAST_ACTION, N_MOTORS),
-        ("command_vx_vy_wz", OBS_COMMAND, 3),
-    ]
+    topa_env::observation::TOPA.blocks().into_iter().map(|(b, offset, size)| (b.name(), offset, size)).collect()
 }
 
 fn tensor(name: &str, dims: &[usize], data: Vec<f32>) -> pb::TensorProto {

@@ -7,6 +7,7 @@ pub mod env;
 pub mod error;
 pub mod indices;
 pub mod linkage;
+pub mod observation;
 pub mod perturb;
 pub mod rewards;
 pub mod robot;

@@ -3,7 +3,8 @@
 
 pub use trainer::symmetry::{SignedPermutation, Symmetry};
 
-use crate::robot::{self, N_MOTORS};
+use crate::observation::{Mirror, ObsLayout};
+use crate::robot;
 
 /// Mirror of a robot-frame vector (x forward, y left, z up) in the XZ plane: y flips.
 const VEC_SIGN: [f32; 3] = [1.0, -1.0, 1.0];
@@ -12,21 +13,27 @@ const PSEUDO_SIGN: [f32; 3] = [-1.0, 1.0, -1.0];
 /// Mirror of the command (v_x, v_y, w_z): v_y and w_z flip.
 const CMD_SIGN: [f32; 3] = [1.0, -1.0, -1.0];
 
+/// S_o and S_a for an observation layout, given the robot's motor mirror (`out[i] = sign[i] · in[perm[i]]`).
+pub fn for_layout(layout: &ObsLayout, motor_perm: &[usize], motor_sign: &[f32]) -> Symmetry {
+    let id3 = [0, 1, 2];
+    let mut obs = SignedPermutation::identity(layout.dim());
+    for (block, offset, _) in layout.blocks() {
+        match block.mirror() {
+            Mirror::Vector => obs.set_block(offset, &id3, &VEC_SIGN),
+            Mirror::PseudoVector => obs.set_block(offset, &id3, &PSEUDO_SIGN),
+            Mirror::Command => obs.set_block(offset, &id3, &CMD_SIGN),
+            Mirror::Motors => obs.set_block(offset, motor_perm, motor_sign),
+        }
+    }
+    let mut act = SignedPermutation::identity(layout.n_motors);
+    act.set_block(0, motor_perm, motor_sign);
+    Symmetry { obs, act }
+}
+
 /// S_o and S_a for the TopA observation `[v, ω, g, q, q̇, a_prev, c]` (3+3+3+10+10+10+3) and action (10).
 pub fn topa() -> Symmetry {
     let (leg_perm, leg_sign) = robot::mirror_legs_map();
-    let id3 = [0, 1, 2];
-    let mut obs = SignedPermutation::identity(crate::env::OBS_DIM);
-    obs.set_block(0, &id3, &VEC_SIGN);
-    obs.set_block(3, &id3, &PSEUDO_SIGN);
-    obs.set_block(6, &id3, &VEC_SIGN);
-    for block in 0..3 {
-        obs.set_block(9 + block * N_MOTORS, &leg_perm, &leg_sign);
-    }
-    obs.set_block(9 + 3 * N_MOTORS, &id3, &CMD_SIGN);
-    let mut act = SignedPermutation::identity(N_MOTORS);
-    act.set_block(0, &leg_perm, &leg_sign);
-    Symmetry { obs, act }
+    for_layout(&crate::observation::TOPA, &leg_perm, &leg_sign)
 }
 
 /// Mirrors a full MuJoCo state of a TopA model in the XZ plane (for equivariance checks and data augmentation):

@@ -21,17 +21,10 @@ use crate::state::{self, quat_of, RobotState};
 use crate::symmetry::{self, Symmetry};
 use crate::task::{StepOutcome, Task};
 
-/// `[v(3), ω(3), g(3), q(10), q̇(10), a_prev(10), c(3)]`.
-pub const OBS_DIM: usize = 42;
+pub use crate::observation::{
+    OBS_ANG_VEL, OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_LIN_VEL, OBS_Q, OBS_QD,
+};
 pub const ACT_DIM: usize = N_MOTORS;
-/// Offsets of the observation blocks.
-pub const OBS_LIN_VEL: usize = 0;
-pub const OBS_ANG_VEL: usize = 3;
-pub const OBS_GRAVITY: usize = 6;
-pub const OBS_Q: usize = 9;
-pub const OBS_QD: usize = 19;
-pub const OBS_LAST_ACTION: usize = 29;
-pub const OBS_COMMAND: usize = 39;
 
 /// Model parameters before randomisation, restored at every reset.
 #[derive(Debug)]
