@@ -252,10 +252,14 @@ fn a_policy_file_that_cannot_drive_topa_is_refused() {
     let dir = tempdir("refuse");
     let p = constant_policy(&dir, "ok", ModelKind::Closed, [0.0; N_MOTORS]);
     let mut meta: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
-    meta["model"] = serde_json::Value::Null;
+    meta.as_object_mut().unwrap().remove("robot");
     std::fs::write(&p, serde_json::to_string(&meta).unwrap()).unwrap();
     let err = PolicyRunner::load(&p, "x").err().unwrap().to_string();
-    assert!(err.contains("does not say which model"), "{err}");
+    assert!(err.contains("does not name the robot"), "{err}");
+    meta["robot"] = serde_json::json!("a_robot_of_someone_else");
+    std::fs::write(&p, serde_json::to_string(&meta).unwrap()).unwrap();
+    let err = PolicyRunner::load(&p, "x").err().unwrap().to_string();
+    assert!(err.contains("a_robot_of_someone_else"), "{err}");
     std::fs::remove_dir_all(dir).ok();
 }
 
