@@ -79,7 +79,7 @@ impl Linkage {
         let key = m.id(ObjType::Key, &spec.stand_keyframe)?;
         let key_qpos = m.key_qpos(key).to_vec();
         let nominal_motors = motor_qpos.iter().map(|&a| key_qpos[a]).collect();
-        Ok(Linkage {
+        let mut linkage = Linkage {
             data: Data::new(m)?,
             key,
             motor_qpos,
@@ -90,7 +90,34 @@ impl Linkage {
             joint_is_passive,
             equalities,
             nominal_motors,
-        })
+        };
+        linkage.check_keyframe(spec, &key_qpos)?;
+        Ok(linkage)
+    }
+
+    /// The stand keyframe must already close the loops: the env starts every episode from it.
+    fn check_keyframe(&mut self, spec: &RobotSpec, key_qpos: &[f64]) -> Result<()> {
+        if self.passive_qpos.is_empty() {
+            return Ok(());
+        }
+        self.data.reset_keyframe(self.key)?;
+        self.data.fwd_position()?;
+        let residual = self.rows().0.norm();
+        if residual > 1e-6 {
+            let motors = self.nominal_motors.clone();
+            let closed = self.closed_qpos(&motors).ok();
+            let worst =
+                closed.map(|q| self.passive_qpos.iter().map(|&a| (q[a] - key_qpos[a]).abs()).fold(0.0, f64::max));
+            return Err(EnvError::Config(format!(
+                "{}: keyframe '{}' does not close the loops (constraint residual {residual:.2e}{}): solve it with \
+                 `cargo run -p topa-env --example solve_stand -- {}` and put that qpos in the MJCF",
+                spec.path.display(),
+                spec.stand_keyframe,
+                worst.map_or(String::new(), |w| format!(", passive joints off by up to {w:.2e} rad")),
+                spec.path.display()
+            )));
+        }
+        Ok(())
     }
 
     pub fn n_motors(&self) -> usize {
@@ -147,6 +174,13 @@ impl Linkage {
         let r = DVector::from_iterator(rows.len(), rows.iter().map(|&i| d.efc_pos()[i]));
         let cols = |dofs: &[usize]| DMatrix::from_fn(rows.len(), dofs.len(), |i, k| jac[rows[i] * nv + dofs[k]]);
         (r, cols(&self.passive_dof), cols(&self.motor_dof))
+    }
+
+    /// The whole qpos of the stand keyframe with these motor positions and the loops closed (the base and any
+    /// joint outside the loops as in the keyframe).
+    pub fn closed_qpos(&mut self, motors: &[f64]) -> Result<Vec<f64>> {
+        self.close(motors)?;
+        Ok(self.data.qpos().to_vec())
     }
 
     /// Kinematic-joint angles for motor positions.

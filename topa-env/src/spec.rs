@@ -96,7 +96,8 @@ pub struct Motor {
     pub joint_range: [f64; 2],
     /// Peak torque of the motor (= the actuator's force range), N·m.
     pub torque_limit: f64,
-    /// The mirrored degree of freedom (index into `motors`) and the sign the mirror puts on the angle.
+    /// The mirrored degree of freedom (index into `motors`) and the sign the mirror puts on the motor's position
+    /// (its driven joint's angle: a pitch-axis crank keeps its sign even where its kinematic joint is a roll).
     pub mirror: usize,
     pub mirror_sign: f64,
 }
@@ -249,15 +250,6 @@ fn resolve(raw: &Raw, src: &Source, path: &Path, mjcf: PathBuf) -> Result<RobotS
                 ),
             ));
         }
-        if (m.nominal - m.mirror_sign * back.nominal).abs() > TOL {
-            return Err(src.at(
-                motors_raw[i].nominal.span(),
-                format!(
-                    "the stand pose must be symmetric: '{}' is {} but its mirror '{}' is {}",
-                    m.joint, m.nominal, back.joint, back.nominal
-                ),
-            ));
-        }
     }
     let mut groups = BTreeMap::new();
     for (g, names) in &raw.groups {
@@ -393,6 +385,20 @@ fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result
                     format!("joint '{name}' has range {:?} in {mjcf}, the spec says {want:?}", m.jnt_range()[j]),
                 ));
             }
+        }
+        let mirrored = &spec.motors[mm.mirror];
+        let (q_m, q_mirror) = (
+            key_qpos[m.jnt_qposadr_of(driven)],
+            key_qpos[m.jnt_qposadr_of(m.id(ObjType::Joint, &mirrored.drives).unwrap_or(driven))],
+        );
+        if (q_m - mm.mirror_sign * q_mirror).abs() > 1e-9 {
+            return Err(src.at(
+                r.mirror_sign.span(),
+                format!(
+                    "the stand pose must be symmetric: keyframe '{}' puts '{}' at {q_m} and its mirror '{}' at {q_mirror} (sign {})",
+                    spec.stand_keyframe, mm.drives, mirrored.drives, mm.mirror_sign
+                ),
+            ));
         }
         let q = key_qpos[m.jnt_qposadr_of(joint)];
         if (q - mm.nominal).abs() > 1e-6 {
