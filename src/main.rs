@@ -96,9 +96,13 @@ enum Cmd {
         /// TOML preset: configs/paper.toml (the paper's table) or configs/cpu.toml (2-core machine).
         #[arg(long)]
         config: Option<PathBuf>,
-        /// Which robot model: closed (the paper's C) or open (the serial baseline O).
-        #[arg(long)]
+        /// TopA's model: closed (the paper's C) or open (the serial baseline O); shorthand for --robot with
+        /// assets/robots/topa_closed.toml or topa_open.toml.
+        #[arg(long, conflicts_with = "robot")]
         model: Option<topa_env::ModelKind>,
+        /// The robot to train: its spec (a TOML beside its MJCF), e.g. assets/robots/kestrel.toml.
+        #[arg(long)]
+        robot: Option<PathBuf>,
         #[arg(long)]
         seed: Option<u64>,
         /// Output folder (default runs/<model>[-adversary]-seed<S>).
@@ -252,10 +256,11 @@ enum BenchCmd {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Cmd::Info { model, json } => info::run(&model, json),
-        Cmd::Train { config, model, seed, out, adversary, threads, iterations, resume, init_from, quiet } => {
+        Cmd::Train { config, model, robot, seed, out, adversary, threads, iterations, resume, init_from, quiet } => {
             train_cmd::run(train_cmd::TrainArgs {
                 config,
                 model,
+                robot,
                 seed,
                 out,
                 adversary,

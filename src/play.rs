@@ -6,8 +6,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use serde::Serialize;
 use serde_json::json;
-use topa_env::robot::{self, N_MOTORS};
-use topa_env::{assets, ModelKind, Task, TopaEnv};
+use topa_env::{assets, Task, TopaEnv};
 
 use crate::eval::{EvalSettings, PolicyRunner};
 use crate::recording::Recorder;
@@ -48,12 +47,26 @@ fn named(names: &[String], v: &[f64]) -> serde_json::Value {
     serde_json::Value::Object(names.iter().zip(v).map(|(n, x)| (n.clone(), json!(x))).collect())
 }
 
-fn record_step(rec: &mut Recorder, env: &TopaEnv, t: f64) -> Result<()> {
+/// Joint torques from motor torques by virtual work, τ_j = J⁻ᵀ τ_m, where the robot's linkage is linear (its J
+/// constant); `None` leaves them out of the recording.
+fn joint_torque_map(env: &TopaEnv) -> Option<nalgebra::DMatrix<f64>> {
+    let idx = env.indices();
+    let map = topa_env::linkage::JointMap::new(&idx.spec, env.data().model()).ok()?;
+    map.inverse_matrix(idx.n_motors).map(|inv| inv.transpose())
+}
+
+fn record_step(rec: &mut Recorder, env: &TopaEnv, torque_map: &Option<nalgebra::DMatrix<f64>>, t: f64) -> Result<()> {
     let s = env.robot_state();
-    let joints = robot::joint_names();
-    let motors: Vec<String> = robot::actuator_names(ModelKind::Closed);
+    let spec = &env.indices().spec;
+    let joints: Vec<String> = spec.motors.iter().map(|m| m.joint.clone()).collect();
+    let motors: Vec<String> = spec.motors.iter().map(|m| m.actuator.clone()).collect();
     rec.write_transforms(env.data(), t)?;
-    rec.write_plot("/joints", t, json!({"position": named(&joints, &s.joint_pos), "velocity": named(&joints, &s.joint_vel), "torque": named(&joints, &s.joint_torque)}))?;
+    let mut joint_plot = json!({"position": named(&joints, &s.joint_pos), "velocity": named(&joints, &s.joint_vel)});
+    if let Some(m) = torque_map {
+        let tau: Vec<f64> = (m * nalgebra::DVector::from_column_slice(&s.motor_torque)).iter().copied().collect();
+        joint_plot["torque"] = named(&joints, &tau);
+    }
+    rec.write_plot("/joints", t, joint_plot)?;
     rec.write_plot("/motors", t, json!({"position": named(&motors, &s.motor_pos), "velocity": named(&motors, &s.motor_vel), "torque": named(&motors, &s.motor_torque)}))?;
     let mut base = json!({"height": s.base_pos[2], "roll": s.roll, "pitch": s.pitch, "yaw": s.yaw,
                "v_x": s.lin_vel[0], "v_y": s.lin_vel[1], "v_z": s.lin_vel[2], "w_x": s.ang_vel[0], "w_y": s.ang_vel[1], "w_z": s.ang_vel[2]});
@@ -77,8 +90,9 @@ pub fn run(policy: &std::path::Path, o: &PlayOptions, settings: &EvalSettings) -
     let (command, seconds) = (o.command, o.seconds);
     let mut runner = PolicyRunner::load(policy, "policy")?;
     let cfg = runner.eval_config(settings)?;
-    let mut env =
-        TopaEnv::new(assets::load_model(ModelKind::Closed)?, std::sync::Arc::new(cfg.clone()), settings.seed, 0)?;
+    let (_, model) = assets::load_robot(&cfg)?;
+    let mut env = TopaEnv::new(model, std::sync::Arc::new(cfg.clone()), settings.seed, 0)?;
+    let torque_map = joint_torque_map(&env);
     let mut obs = vec![0.0f32; env.obs_dim()];
     env.reset(&mut obs)?;
     env.set_command_override(Some([0.0; 3]));
@@ -98,7 +112,7 @@ pub fn run(policy: &std::path::Path, o: &PlayOptions, settings: &EvalSettings) -
     };
     if let Some(r) = rec.as_mut() {
         r.write_scene(env.data().model(), 0.0)?;
-        record_step(r, &env, 0.0)?;
+        record_step(r, &env, &torque_map, 0.0)?;
     }
     let dt = cfg.policy_dt();
     let settle = (settings.settle_s / dt).round() as usize;
@@ -106,7 +120,7 @@ pub fn run(policy: &std::path::Path, o: &PlayOptions, settings: &EvalSettings) -
     let start = env.robot_state().base_pos;
     let (mut sum, mut n) = ([0.0; 3], 0usize);
     let mut fell_at = None;
-    let mut actions = Vec::with_capacity(N_MOTORS);
+    let mut actions = Vec::with_capacity(env.action_dim());
     for k in 0..steps {
         if k == settle {
             env.set_command_override(Some(command));
@@ -120,7 +134,7 @@ pub fn run(policy: &std::path::Path, o: &PlayOptions, settings: &EvalSettings) -
         let out = env.step(&actions, &mut obs);
         let t = (k + 1) as f64 * dt;
         if let Some(r) = rec.as_mut() {
-            record_step(r, &env, t)?;
+            record_step(r, &env, &torque_map, t)?;
         }
         if let Some(v) = vid.as_mut() {
             let text = video::overlay(&env, t);

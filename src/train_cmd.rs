@@ -17,6 +17,7 @@ use trainer::{IterationLog, TrainConfig, Trainer};
 pub struct TrainArgs {
     pub config: Option<PathBuf>,
     pub model: Option<ModelKind>,
+    pub robot: Option<PathBuf>,
     pub seed: Option<u64>,
     pub out: Option<PathBuf>,
     pub adversary: bool,
@@ -53,8 +54,8 @@ fn rank_env(cfg: &TrainConfig, comm: &dyn Comm) -> Result<Box<dyn VecEnv>> {
     let env = EnvConfig::from_table(&cfg.env)?;
     Ok(match env.task {
         TaskKind::Topa => {
-            let model = assets::load_model(env.model)?;
-            Box::new(assets::topa_batch_from(model, &env, first, share, cfg.run.seed, 0)?)
+            let (spec, model) = assets::load_robot(&env)?;
+            Box::new(assets::topa_batch_from(model, &spec, &env, first, share, cfg.run.seed, 0)?)
         }
         TaskKind::Cartpole => {
             let model = topa_env::tasks::cartpole::model()?;
@@ -126,7 +127,7 @@ pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> 
     let meta = PolicyMeta {
         format: policy_file::FORMAT.into(),
         version: policy_file::VERSION,
-        robot: (env.task == TaskKind::Topa).then(|| env.model.robot_name().to_string()),
+        robot: (env.task == TaskKind::Topa).then(|| env.robot.clone()),
         model: None,
         obs_dim: t.env.obs_dim(),
         action_dim: t.env.action_dim(),
@@ -186,11 +187,14 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let (mut trainer, out, command, resumed_at) = if let Some(dir) = &args.resume {
         if args.config.is_some()
             || args.model.is_some()
+            || args.robot.is_some()
             || args.seed.is_some()
             || args.adversary
             || args.init_from.is_some()
         {
-            bail!("--resume continues a run with its own saved config: drop --config/--model/--seed/--adversary/--init-from");
+            bail!(
+                "--resume continues a run with its own saved config: drop --config/--model/--robot/--seed/--adversary/--init-from"
+            );
         }
         let side_path = checkpoint::latest(&dir.join("checkpoints"))?;
         let (side, loaded) = checkpoint::read_sidecar(&side_path)?;
@@ -225,7 +229,12 @@ pub fn run(args: TrainArgs) -> Result<()> {
         let (mut cfg, _) = load_config(path)?;
         if let Some(m) = args.model {
             let mut env = EnvConfig::from_table(&cfg.env)?;
-            env.model = m;
+            env.robot = m.spec_path().into();
+            cfg.env = env.to_table();
+        }
+        if let Some(r) = &args.robot {
+            let mut env = EnvConfig::from_table(&cfg.env)?;
+            env.robot = r.to_string_lossy().into_owned();
             cfg.env = env.to_table();
         }
         if let Some(s) = args.seed {
@@ -243,7 +252,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
         let out = args.out.clone().unwrap_or_else(|| {
             PathBuf::from(format!(
                 "runs/{}{}-seed{}",
-                env_cfg.model.name(),
+                std::path::Path::new(&env_cfg.robot).file_stem().map_or("robot".into(), |s| s.to_string_lossy()),
                 if args.adversary { "-adversary" } else { "" },
                 cfg.run.seed
             ))

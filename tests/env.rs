@@ -12,7 +12,7 @@ use topa_env::{assets, BatchEnv, EnvConfig, ModelKind, Task, TopaEnv, VecEnv};
 
 /// Training config without randomness in the dynamics or the observation.
 fn quiet(kind: ModelKind) -> EnvConfig {
-    let mut c = EnvConfig { model: kind, ..EnvConfig::default() };
+    let mut c = EnvConfig { robot: kind.spec_path().into(), ..EnvConfig::default() };
     c.noise.enabled = false;
     c.domain_rand.enabled = false;
     c.push.enabled = false;
@@ -20,7 +20,8 @@ fn quiet(kind: ModelKind) -> EnvConfig {
 }
 
 fn env(cfg: EnvConfig, seed: u64) -> TopaEnv {
-    TopaEnv::new(assets::load_model(cfg.model).unwrap(), Arc::new(cfg), seed, 0).unwrap()
+    let (_, model) = assets::load_robot(&cfg).unwrap();
+    TopaEnv::new(model, Arc::new(cfg), seed, 0).unwrap()
 }
 
 #[test]

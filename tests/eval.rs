@@ -32,12 +32,12 @@ fn constant_policy(dir: &Path, name: &str, model: ModelKind, action: [f32; N_MOT
     }
     mlp.layers[1].bias.set(&Tensor::new(&action, &Device::Cpu).unwrap()).unwrap();
     let mut cfg = TrainConfig::default();
-    let env = EnvConfig { model, ..EnvConfig::default() };
+    let env = EnvConfig { robot: model.spec_path().into(), ..EnvConfig::default() };
     cfg.env = env.to_table();
     let meta = PolicyMeta {
         format: policy_file::FORMAT.into(),
         version: policy_file::VERSION,
-        robot: Some(model.robot_name().into()),
+        robot: Some(model.spec_path().into()),
         model: None,
         obs_dim: 42,
         action_dim: 10,
@@ -236,7 +236,7 @@ fn open_policies_are_mapped_through_m() {
     let aj: [f32; N_MOTORS] = std::array::from_fn(|i| 0.1 * (i as f32 + 1.0));
     let p = constant_policy(&dir, "open", ModelKind::Open, aj);
     let mut r = PolicyRunner::load(&p, "O").unwrap();
-    assert_eq!(r.trained_on(), ModelKind::Open);
+    assert_eq!((r.trained_on(), r.robot().name.as_str()), ("topa_open", "topa_closed"));
     let mut out = Vec::new();
     r.act(&[0.0; 42], &mut out);
     let back = robot::motor_to_joint(&std::array::from_fn::<f32, N_MOTORS, _>(|i| out[i]));

@@ -10,9 +10,27 @@ use topa_env::robot::{self, ModelKind, N_MOTORS};
 use topa_env::{assets, RobotIndices};
 
 fn load(kind: ModelKind) -> (Arc<Model>, RobotIndices) {
-    let m = assets::load_model(kind).unwrap();
-    let idx = RobotIndices::resolve(&m, kind).unwrap();
+    let cfg = topa_env::EnvConfig { robot: kind.spec_path().into(), ..Default::default() };
+    let (spec, m) = assets::load_robot(&cfg).unwrap();
+    let idx = RobotIndices::resolve(&m, &spec).unwrap();
     (m, idx)
+}
+
+/// Loads TopA's closed spec against another MJCF text (written beside the real one, so includes resolve).
+fn closed_spec_against(xml: &str, tag: &str) -> String {
+    let dir = assets::mjcf_dir();
+    let file = format!("test_{tag}_{}.xml", std::process::id());
+    std::fs::write(dir.join(&file), xml).unwrap();
+    let spec = std::fs::read_to_string(assets::repo_dir().join("assets/robots/topa_closed.toml")).unwrap();
+    let spec_path = assets::repo_dir().join(format!("assets/robots/test_{tag}_{}.toml", std::process::id()));
+    std::fs::write(&spec_path, spec.replace("../mjcf/topa_closed.xml", &format!("../mjcf/{file}"))).unwrap();
+    let r = topa_env::spec::RobotSpec::load(&spec_path);
+    std::fs::remove_file(dir.join(&file)).ok();
+    std::fs::remove_file(&spec_path).ok();
+    match r {
+        Ok(_) => panic!("{tag}: the mismatched model loaded"),
+        Err(e) => e.to_string(),
+    }
 }
 
 /// Holds the floating base still in the air (a test stand), so only the legs move.
@@ -201,12 +219,10 @@ fn a_renamed_joint_is_a_clear_start_up_error() {
     let dir = assets::mjcf_dir();
     let xml = std::fs::read_to_string(dir.join("topa_closed.xml")).unwrap();
     assert!(xml.contains("name=\"l_ankle_pitch\""));
-    let renamed = xml.replace("name=\"l_ankle_pitch\"", "name=\"l_ankle\"");
-    let m = Model::from_xml_string(&renamed, &dir).unwrap();
-    let err = RobotIndices::resolve(&m, ModelKind::Closed).unwrap_err().to_string();
-    assert!(err.contains("l_ankle_pitch") && err.contains("joint"), "{err}");
-    // The open model checked as closed: the missing linkage joint is named, with the likely fix.
-    let open = assets::load_model(ModelKind::Open).unwrap();
-    let err = RobotIndices::resolve(&open, ModelKind::Closed).unwrap_err().to_string();
-    assert!(err.contains("l_ankle_motor") && err.contains("--model open"), "{err}");
+    let err = closed_spec_against(&xml.replace("name=\"l_ankle_pitch\"", "name=\"l_ankle\""), "renamed");
+    assert!(err.contains("l_ankle_pitch") && err.contains("joint") && err.contains(".toml:"), "{err}");
+    // The closed spec on the open (serial) model: the first missing actuator is named, with the model's own list.
+    let open = std::fs::read_to_string(dir.join("topa_open.xml")).unwrap();
+    let err = closed_spec_against(&open, "open");
+    assert!(err.contains("l_knee_motor") && err.contains("l_knee_pitch"), "{err}");
 }

@@ -172,7 +172,7 @@ fn an_action_reaches_the_motors_after_the_configured_latency() {
     let latency = cfg.decimation + 3;
     let mut target = [0.0; 10];
     target[0] = initial + 0.2;
-    s.set_target(target);
+    s.set_target(&target);
     for k in 0..latency + 2 {
         s.before_physics_step(&mut d, &idx);
         let want = if k < latency { initial } else { initial + 0.2 };

@@ -58,7 +58,7 @@ pub fn run(
     seconds: f64,
     rounds: usize,
 ) -> Result<()> {
-    let mut cfg = EnvConfig { model: kind, ..EnvConfig::default() };
+    let mut cfg = EnvConfig { robot: kind.spec_path().into(), ..EnvConfig::default() };
     cfg.integrator = integrator;
     // Best of `rounds` for every measurement, the rounds interleaved, so a burst of load from other tenants of
     // this machine hits all configurations alike rather than one.

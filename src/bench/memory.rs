@@ -65,7 +65,7 @@ fn measure(cfg: &EnvConfig, n: usize, steps: usize, policy: Option<&mut Policy>,
 }
 
 pub fn run(envs: usize, steps: usize, policy: &std::path::Path) -> Result<()> {
-    let mut cfg = EnvConfig { model: ModelKind::Closed, ..EnvConfig::default() };
+    let mut cfg = EnvConfig { robot: ModelKind::Closed.spec_path().into(), ..EnvConfig::default() };
     // The training preset's physics and the paper's pushes (up to 2.5 m/s): the hardest contacts training sees.
     cfg.integrator = topa_env::IntegratorChoice::Euler;
     let (rss0, faults0) = rss_and_faults();

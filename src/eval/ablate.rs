@@ -78,7 +78,7 @@ pub fn run(policies: &[(String, PathBuf)], settings: &EvalSettings, extent: &Ext
     let mut results = Vec::new();
     for (name, path) in policies {
         let mut runner = PolicyRunner::load(path, label(name))?;
-        eprintln!("{}: {} (trained on the {} model)", label(name), path.display(), runner.trained_on().name());
+        eprintln!("{}: {} (trained on the {} model)", label(name), path.display(), runner.trained_on());
         let tracking = tracking::run(&mut runner, settings, extent.tracking_window_s, extent.tracking_transient_s)?;
         let push =
             push::run(&mut runner, settings, extent.push_range_n, extent.push_step_n, extent.push_window_s, [0.0; 3])?;
@@ -89,7 +89,7 @@ pub fn run(policies: &[(String, PathBuf)], settings: &EvalSettings, extent: &Ext
         results.push(PolicyResults {
             name: name.clone(),
             policy: path.clone(),
-            trained_on: runner.trained_on().name().into(),
+            trained_on: runner.trained_on().into(),
             tracking,
             push,
             push_walking: Some(walking),

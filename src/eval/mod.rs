@@ -16,9 +16,16 @@ use std::path::Path;
 
 use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
-use topa_env::env::{OBS_LAST_ACTION, OBS_Q, OBS_QD};
-use topa_env::robot::{self, ModelKind, N_MOTORS};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use nalgebra::DMatrix;
+use topa_env::assets;
+use topa_env::linkage::JointMap;
+use topa_env::observation::{Block, ObsLayout};
+use topa_env::robot::ModelKind;
 use topa_env::sim2sim::Sim2SimConfig;
+use topa_env::spec::RobotSpec;
 use topa_env::EnvConfig;
 use trainer::policy_file::Policy;
 
@@ -85,37 +92,104 @@ impl Default for EvalSettings {
     }
 }
 
-/// A policy ready to act on the closed model: motor-space policies directly, joint-space (open-model) policies
-/// through M: observed motor positions, velocities and previous actions are mapped to joint space with M, and
-/// the joint-space action back to motor space with M⁻¹ (motor targets = M⁻¹ · joint targets, since the
-/// nominal pose maps the same way).
+/// A policy ready to act on the robot it is evaluated on: the robot it was trained on, or — for a policy trained
+/// on a simplified model (TopA's serial chain, whose spec `approximates` the closed one) — the real robot, through
+/// its linkage: observed motor positions, velocities and previous actions are mapped to joint space with the
+/// linkage's constant J (the paper's M, computed from the constraints), and the joint-space action back with J⁻¹
+/// (motor targets = J⁻¹ · joint targets, since the nominal pose maps the same way).
 pub struct PolicyRunner {
     pub policy: Policy,
     pub name: String,
-    trained_on: ModelKind,
+    /// The spec the policy was trained on, and the robot it runs on here.
+    trained_on: Arc<RobotSpec>,
+    robot: Arc<RobotSpec>,
+    /// (J, J⁻¹) where the two differ.
+    map: Option<(DMatrix<f64>, DMatrix<f64>)>,
+    layout: ObsLayout,
     obs_buf: Vec<f32>,
     act_buf: Vec<f32>,
+}
+
+/// The spec a policy file names: its `robot`, or the model ("closed"/"open") of earlier builds.
+fn policy_robot(meta: &trainer::policy_file::PolicyMeta) -> Result<PathBuf> {
+    let named = meta.robot.as_deref().filter(|r| r.ends_with(".toml"));
+    Ok(match named {
+        Some(r) => assets::robot_path(r),
+        None => assets::robot_path(
+            ModelKind::of_policy(meta.robot.as_deref(), meta.model.as_deref()).map_err(anyhow::Error::msg)?.spec_path(),
+        ),
+    })
 }
 
 impl PolicyRunner {
     pub fn load(path: &Path, name: &str) -> Result<Self> {
         let policy = Policy::load(path)?;
         let m = &policy.meta;
-        let trained_on = ModelKind::of_policy(m.robot.as_deref(), m.model.as_deref())
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        if m.obs_dim != topa_env::env::OBS_DIM || m.action_dim != N_MOTORS {
+        let spec_path = policy_robot(m).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let (trained_on, _) = RobotSpec::load(&spec_path)?;
+        let (robot, model) = match &trained_on.approximates {
+            Some(real) => RobotSpec::load(real)?,
+            None => RobotSpec::load(&spec_path)?,
+        };
+        let n = robot.n_motors();
+        let layout = ObsLayout::new(n);
+        if m.obs_dim != layout.dim() || m.action_dim != n {
             bail!(
-                "{}: a {}→{} policy cannot drive TopA (42 observations → 10 motor targets)",
+                "{}: a {}→{} policy cannot drive {} ({} observations → {n} motor targets)",
                 path.display(),
                 m.obs_dim,
-                m.action_dim
+                m.action_dim,
+                robot.name,
+                layout.dim()
             );
         }
-        Ok(PolicyRunner { policy, name: name.to_string(), trained_on, obs_buf: Vec::new(), act_buf: Vec::new() })
+        let map = if trained_on.approximates.is_some() {
+            for (a, b) in trained_on.motors.iter().zip(&robot.motors) {
+                if a.drives != b.joint {
+                    bail!(
+                        "{}: its motor '{}' drives '{}', not {}'s joint '{}'",
+                        trained_on.name,
+                        a.actuator,
+                        a.drives,
+                        robot.name,
+                        b.joint
+                    );
+                }
+            }
+            let joint_map = JointMap::new(&robot, &model)?;
+            let (Some(j), Some(inv)) = (joint_map.matrix(n), joint_map.inverse_matrix(n)) else {
+                bail!(
+                    "{}: a policy trained on {} needs {}'s linkage to be linear to map its joint-space actions; \
+                     this one is nonlinear",
+                    path.display(),
+                    trained_on.name,
+                    robot.name
+                );
+            };
+            Some((j, inv))
+        } else {
+            None
+        };
+        Ok(PolicyRunner {
+            policy,
+            name: name.to_string(),
+            trained_on: Arc::new(trained_on),
+            robot: Arc::new(robot),
+            map,
+            layout,
+            obs_buf: Vec::new(),
+            act_buf: Vec::new(),
+        })
     }
 
-    pub fn trained_on(&self) -> ModelKind {
-        self.trained_on
+    /// The name of the robot spec the policy was trained on (e.g. topa_open for the paper's O).
+    pub fn trained_on(&self) -> &str {
+        &self.trained_on.name
+    }
+
+    /// The robot it is evaluated on.
+    pub fn robot(&self) -> &RobotSpec {
+        &self.robot
     }
 
     /// The env config to evaluate this policy with: its training config made deterministic, on the closed
@@ -123,7 +197,7 @@ impl PolicyRunner {
     pub fn eval_config(&self, s: &EvalSettings) -> Result<EnvConfig> {
         let train = EnvConfig::from_table(&self.policy.meta.provenance.config.env)?;
         let mut c = train.for_evaluation();
-        c.model = ModelKind::Closed;
+        c.robot = self.robot.path.to_string_lossy().into_owned();
         c.integrator = s.integrator;
         c.timestep = s.timestep();
         c.sim2sim = s.sim2sim.clone();
@@ -143,26 +217,33 @@ impl PolicyRunner {
         Ok(c)
     }
 
-    /// Actions (motor space) for closed-model observations, rows × 42 → rows × 10.
+    /// Actions (the robot's motor space) for the robot's observations, row by row.
     pub fn act(&mut self, obs: &[f32], actions: &mut Vec<f32>) {
-        match self.trained_on {
-            ModelKind::Closed => self.policy.act(obs, actions),
-            ModelKind::Open => {
-                self.obs_buf.clear();
-                self.obs_buf.extend_from_slice(obs);
-                for row in self.obs_buf.chunks_exact_mut(topa_env::env::OBS_DIM) {
-                    for block in [OBS_Q, OBS_QD, OBS_LAST_ACTION] {
-                        let v: [f32; N_MOTORS] = row[block..block + N_MOTORS].try_into().unwrap();
-                        row[block..block + N_MOTORS].copy_from_slice(&robot::motor_to_joint(&v));
-                    }
-                }
-                self.policy.act(&self.obs_buf, &mut self.act_buf);
-                actions.clear();
-                for a in self.act_buf.chunks_exact(N_MOTORS) {
-                    let a: [f32; N_MOTORS] = a.try_into().unwrap();
-                    actions.extend_from_slice(&robot::joint_to_motor(&a));
-                }
+        let Some((j, inv)) = &self.map else {
+            return self.policy.act(obs, actions);
+        };
+        let l = self.layout;
+        let n = l.n_motors;
+        let apply = |m: &DMatrix<f64>, v: &[f32], out: &mut [f32]| {
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = (0..n).fold(0.0, |acc, k| acc + m[(i, k)] * v[k] as f64) as f32;
             }
+        };
+        self.obs_buf.clear();
+        self.obs_buf.extend_from_slice(obs);
+        let mut tmp = vec![0.0f32; n];
+        for row in self.obs_buf.chunks_exact_mut(l.dim()) {
+            for block in [Block::MotorPos, Block::MotorVel, Block::LastAction] {
+                let at = l.offset(block);
+                apply(j, &row[at..at + n], &mut tmp);
+                row[at..at + n].copy_from_slice(&tmp);
+            }
+        }
+        self.policy.act(&self.obs_buf, &mut self.act_buf);
+        actions.clear();
+        for a in self.act_buf.chunks_exact(n) {
+            apply(inv, a, &mut tmp);
+            actions.extend_from_slice(&tmp);
         }
     }
 }

@@ -12,8 +12,9 @@ use crate::robot::ModelKind;
 pub struct EnvConfig {
     /// What is trained: the robot (default), or the cart-pole (a one-minute check of an install or a cluster).
     pub task: TaskKind,
-    /// Closed chain (the paper's C) or serial approximation (O).
-    pub model: ModelKind,
+    /// The robot: its spec file (a path from the working folder or the repository root), e.g. TopA's closed
+    /// chain `assets/robots/topa_closed.toml` (the paper's C) or its serial approximation `topa_open.toml` (O).
+    pub robot: String,
     /// Physics timestep, s (paper: policy 50 Hz; 0.005 × 4 = 20 ms).
     pub timestep: f64,
     /// Physics steps per policy step.
@@ -126,7 +127,7 @@ impl Default for EnvConfig {
     fn default() -> Self {
         EnvConfig {
             task: TaskKind::Topa,
-            model: ModelKind::Closed,
+            robot: ModelKind::Closed.spec_path().into(),
             timestep: 0.005,
             decimation: 4,
             integrator: IntegratorChoice::Model,
@@ -147,8 +148,17 @@ impl Default for EnvConfig {
 
 impl EnvConfig {
     /// The `[env]` table of a training config, checked: unknown keys and bad values are errors naming them.
+    /// Earlier builds named TopA's model (`model = "closed"`/`"open"`): that becomes its spec.
     pub fn from_table(t: &toml::Table) -> Result<EnvConfig> {
-        let cfg: EnvConfig = toml::Value::Table(t.clone())
+        let mut t = t.clone();
+        if let Some(m) = t.remove("model") {
+            let kind: ModelKind =
+                m.as_str().unwrap_or("").parse().map_err(|e: String| {
+                    EnvError::Config(format!("[env] model: {e} (or name a spec: robot = \"…\")"))
+                })?;
+            t.entry("robot").or_insert_with(|| toml::Value::String(kind.spec_path().into()));
+        }
+        let cfg: EnvConfig = toml::Value::Table(t)
             .try_into()
             .map_err(|e: toml::de::Error| EnvError::Config(format!("[env]: {}", one_line(&e.to_string()))))?;
         cfg.validate()?;
@@ -231,7 +241,8 @@ pub struct RewardConfig {
     pub sigma_roll: f64,
     pub sigma_yaw: f64,
     pub sigma_pitch: f64,
-    /// Torso height target h_target, m (the stand keyframe's pelvis height).
+    /// Torso height target h_target, m; 0 = the robot spec's `base_height_target` (TopA: the stand keyframe's
+    /// pelvis height, 0.5607 m).
     pub base_height_target: f64,
     /// Air time the feet-air-time term is centred on, s (paper: 0.5).
     pub air_time_target: f64,
@@ -296,7 +307,7 @@ impl Default for RewardConfig {
             sigma_roll: 0.1,
             sigma_yaw: 0.1,
             sigma_pitch: 0.3,
-            base_height_target: 0.5607,
+            base_height_target: 0.0,
             air_time_target: 0.5,
             soft_joint_limit: 0.95,
             soft_torque_limit: 0.8,

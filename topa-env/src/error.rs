@@ -6,9 +6,9 @@ use mujoco_sys::MujocoError;
 pub enum EnvError {
     #[error(transparent)]
     Mujoco(#[from] MujocoError),
-    /// The loaded model does not match the TopA spec (a name, a limit, an order).
-    #[error("model '{model}' does not match the TopA {kind} spec: {problem}")]
-    Spec { model: String, kind: &'static str, problem: String },
+    /// A robot spec that does not load or does not match its MJCF (the error names the spec's line).
+    #[error(transparent)]
+    Spec(#[from] crate::spec::SpecError),
     /// A configuration value is out of range or inconsistent.
     #[error("invalid environment config: {0}")]
     Config(String),

@@ -1,190 +1,126 @@
-//! The TopA spec resolved against a loaded MJCF: every id and address the environment needs, found once at
-//! start-up, with the model checked against the spec (names, actuator order, limits, nominal pose).
+//! A robot spec resolved against its compiled MJCF: every id and address the environment needs, found once at
+//! start-up (the spec loader has already checked names, order, limits and the stand pose), plus the per-motor
+//! tables the env uses every step.
 
-use mujoco_sys::{ffi, Model, ObjType};
+use std::sync::Arc;
 
-use crate::error::{EnvError, Result};
-use crate::robot::{self, ModelKind, N_MOTORS};
+use mujoco_sys::{Model, ObjType};
 
-/// Tolerance for limits read back from the compiled model (MJCF numbers are parsed as doubles).
-const LIMIT_TOL: f64 = 1e-9;
+use crate::error::Result;
+use crate::observation::ObsLayout;
+use crate::spec::RobotSpec;
 
 #[derive(Debug, Clone)]
 pub struct RobotIndices {
-    pub kind: ModelKind,
+    /// The robot's spec.
+    pub spec: Arc<RobotSpec>,
+    pub n_motors: usize,
     pub torso_body: usize,
     pub base_qpos: usize,
     pub base_dof: usize,
-    pub actuators: [usize; N_MOTORS],
-    /// qpos/dof addresses of the joints the actuators drive (motor joints on the closed model).
-    pub actuated_qpos: [usize; N_MOTORS],
-    pub actuated_dof: [usize; N_MOTORS],
-    /// qpos/dof addresses of the kinematic joints (hip roll … ankle pitch), both models.
-    pub joint_qpos: [usize; N_MOTORS],
-    pub joint_dof: [usize; N_MOTORS],
+    pub actuators: Vec<usize>,
+    /// qpos/dof addresses of the joints the actuators drive (motor joints inside a linkage).
+    pub actuated_qpos: Vec<usize>,
+    pub actuated_dof: Vec<usize>,
+    /// qpos/dof addresses of the kinematic joint of each degree of freedom.
+    pub joint_qpos: Vec<usize>,
+    pub joint_dof: Vec<usize>,
     pub foot_bodies: [usize; 2],
     pub foot_geoms: [usize; 2],
-    /// Sites at the centre of each sole (`l_foot_site`, `r_foot_site`).
+    /// Sites at the centre of each sole.
     pub foot_sites: [usize; 2],
-    /// The IMU site and the address of its accelerometer (`imu_acc`) in `sensordata`.
+    /// The IMU site and the address of its accelerometer in `sensordata`.
     pub imu_site: usize,
     pub imu_accel: usize,
     pub floor_geom: usize,
     /// Bodies whose contact with the floor ends an episode (everything but the feet).
     pub fall_bodies: Vec<usize>,
-    /// The closed model's loop-closure constraints (empty on the open model).
+    /// The equality constraints that close the robot's loops (empty for a serial robot).
     pub loops: Vec<usize>,
     pub stand_key: usize,
-    pub torque_limit: [f64; N_MOTORS],
+    /// Per motor: peak torque, N·m; the driven joint's range and the kinematic joint's range, rad.
+    pub torque_limit: Vec<f64>,
+    pub motor_range: Vec<[f64; 2]>,
+    pub joint_range: Vec<[f64; 2]>,
+    /// Per motor: the driven joint's and the kinematic joint's position in the stand keyframe.
+    pub nominal_actuated: Vec<f64>,
+    pub nominal_joints: Vec<f64>,
+    /// The left↔right mirror of motor-indexed vectors (`out[i] = sign[i] · in[perm[i]]`).
+    pub mirror_perm: Vec<usize>,
+    pub mirror_sign: Vec<f32>,
+    /// Motor indices of the joint-deviation reward groups: hip roll, hip yaw, ankle pitch.
+    pub deviation_groups: [Vec<usize>; 3],
 }
+
+/// The spec's reward groups the joint-deviation terms read, in term order.
+pub const DEVIATION_GROUPS: [&str; 3] = ["hip_roll", "hip_yaw", "ankle_pitch"];
 
 impl RobotIndices {
-    /// Resolves and checks. Every mismatch is an error naming the object and the expected value.
-    pub fn resolve(model: &Model, kind: ModelKind) -> Result<Self> {
-        let spec_err = |problem: String| EnvError::Spec { model: model.name().to_string(), kind: kind.name(), problem };
-        let id = |t: ObjType, name: &str| model.id(t, name).map_err(|e| spec_err(e.to_string()));
-        // Catch the common mix-up first, with the fix: each model has joints the other lacks.
-        let has_linkage = model.id(ObjType::Joint, "l_ankle_motor").is_ok();
-        match (kind, has_linkage) {
-            (ModelKind::Closed, false) => return Err(spec_err(
-                "it has no linkage joint 'l_ankle_motor', so it looks like the open (serial) model: use --model open"
-                    .into(),
-            )),
-            (ModelKind::Open, true) => {
-                return Err(spec_err(
-                    "it has the linkage joint 'l_ankle_motor', so it looks like the closed model: use --model closed"
-                        .into(),
-                ))
-            }
-            _ => {}
-        }
-        if model.nu() != N_MOTORS {
-            return Err(spec_err(format!("expected {N_MOTORS} actuators, found {}", model.nu())));
-        }
-        let torso_body = id(ObjType::Body, "torso")?;
-        let base_joint = id(ObjType::Joint, "floating_base")?;
-        if model.jnt_type()[base_joint] != ffi::mjJNT_FREE as i32 {
-            return Err(spec_err("joint 'floating_base' must be a free joint".into()));
-        }
-        let act_names = robot::actuator_names(kind);
-        let actuated = robot::actuated_joint_names(kind);
-        let joints = robot::joint_names();
-        let mut actuators = [0; N_MOTORS];
-        let mut actuated_jnt = [0; N_MOTORS];
-        let mut joint_jnt = [0; N_MOTORS];
-        for i in 0..N_MOTORS {
-            actuators[i] = id(ObjType::Actuator, &act_names[i])?;
-            if actuators[i] != i {
-                return Err(spec_err(format!(
-                    "actuator '{}' is #{} but the spec's order puts it at #{i} (left leg roll, yaw, pitch, knee, \
-                     ankle, then the right leg)",
-                    act_names[i], actuators[i]
-                )));
-            }
-            actuated_jnt[i] = id(ObjType::Joint, &actuated[i])?;
-            joint_jnt[i] = id(ObjType::Joint, &joints[i])?;
-            let driven = model.actuator_trnid()[i][0];
-            if model.actuator_trntype()[i] != ffi::mjTRN_JOINT as i32 || driven != actuated_jnt[i] as i32 {
-                let got = model.name_of(ObjType::Joint, driven.max(0) as usize).unwrap_or("?");
-                return Err(spec_err(format!(
-                    "actuator '{}' must drive joint '{}', it drives '{got}'",
-                    act_names[i], actuated[i]
-                )));
-            }
-        }
-        check_limits(model, kind, &act_names, &actuated, &joints, &actuated_jnt, &joint_jnt).map_err(spec_err)?;
-
-        let foot = |leg: usize| -> Result<(usize, usize)> {
-            let name = robot::side_name(leg, "foot");
-            Ok((id(ObjType::Body, &name)?, id(ObjType::Geom, &name)?))
-        };
-        let (lf, rf) = (foot(0)?, foot(1)?);
-        let floor_geom = id(ObjType::Geom, "floor")?;
-        let foot_bodies = [lf.0, rf.0];
-        let fall_bodies = (1..model.nbody()).filter(|b| !foot_bodies.contains(b)).collect();
-        let loops = match kind {
-            ModelKind::Closed => {
-                (0..2).map(|leg| id(ObjType::Equality, &robot::side_name(leg, "ankle_loop"))).collect::<Result<_>>()?
-            }
-            ModelKind::Open => Vec::new(),
-        };
-        let stand_key = id(ObjType::Key, robot::STAND_KEY)?;
-        // The keyframe's joint angles must be the spec's nominal pose (its ctrl may add gravity compensation).
-        let key_qpos = model.key_qpos(stand_key);
-        for (i, n) in robot::nominal_joints().iter().enumerate() {
-            let q = key_qpos[model.jnt_qposadr_of(joint_jnt[i])];
-            if (q - n).abs() > 1e-6 {
-                return Err(spec_err(format!(
-                    "keyframe 'stand' puts joint '{}' at {q}, the spec's nominal pose is {n}",
-                    joints[i]
-                )));
-            }
-        }
-        Ok(RobotIndices {
-            kind,
-            torso_body,
+    /// Resolves a loaded spec on its model (`RobotSpec::load` checked the one against the other).
+    pub fn resolve(model: &Model, spec: &Arc<RobotSpec>) -> Result<Self> {
+        let id = |t: ObjType, name: &str| -> Result<usize> { Ok(model.id(t, name)?) };
+        let base_joint = id(ObjType::Joint, &spec.base_joint)?;
+        let mut idx = RobotIndices {
+            spec: spec.clone(),
+            n_motors: spec.n_motors(),
+            torso_body: id(ObjType::Body, &spec.base_body)?,
             base_qpos: model.jnt_qposadr_of(base_joint),
             base_dof: model.jnt_dofadr_of(base_joint),
-            actuators,
-            actuated_qpos: actuated_jnt.map(|j| model.jnt_qposadr_of(j)),
-            actuated_dof: actuated_jnt.map(|j| model.jnt_dofadr_of(j)),
-            joint_qpos: joint_jnt.map(|j| model.jnt_qposadr_of(j)),
-            joint_dof: joint_jnt.map(|j| model.jnt_dofadr_of(j)),
-            foot_bodies,
-            foot_geoms: [lf.1, rf.1],
-            foot_sites: [id(ObjType::Site, "l_foot_site")?, id(ObjType::Site, "r_foot_site")?],
-            imu_site: id(ObjType::Site, "imu")?,
-            imu_accel: model.sensor_adr()[id(ObjType::Sensor, "imu_acc")?] as usize,
-            floor_geom,
-            fall_bodies,
-            loops,
-            stand_key,
-            torque_limit: robot::per_motor(|m| m.torque_limit),
-        })
-    }
-}
-
-fn close(a: [f64; 2], b: [f64; 2]) -> bool {
-    (a[0] - b[0]).abs() < LIMIT_TOL && (a[1] - b[1]).abs() < LIMIT_TOL
-}
-
-fn check_limits(
-    model: &Model,
-    kind: ModelKind,
-    act_names: &[String],
-    actuated: &[String],
-    joints: &[String],
-    actuated_jnt: &[usize; N_MOTORS],
-    joint_jnt: &[usize; N_MOTORS],
-) -> std::result::Result<(), String> {
-    let ctrl = robot::actuated_range(kind);
-    let motor_ranges = robot::per_motor(|m| m.motor_range);
-    let joint_ranges = robot::per_motor(|m| m.joint_range);
-    for i in 0..N_MOTORS {
-        let limit = robot::LEG[i % robot::N_LEG].torque_limit;
-        if model.actuator_ctrllimited()[i] == 0 || !close(model.actuator_ctrlrange()[i], ctrl[i]) {
-            return Err(format!(
-                "actuator '{}' ctrlrange is {:?}, the spec says {:?}",
-                act_names[i],
-                model.actuator_ctrlrange()[i],
-                ctrl[i]
-            ));
+            actuators: Vec::new(),
+            actuated_qpos: Vec::new(),
+            actuated_dof: Vec::new(),
+            joint_qpos: Vec::new(),
+            joint_dof: Vec::new(),
+            foot_bodies: [0; 2],
+            foot_geoms: [0; 2],
+            foot_sites: [0; 2],
+            imu_site: id(ObjType::Site, &spec.imu_site)?,
+            imu_accel: model.sensor_adr()[id(ObjType::Sensor, &spec.imu_accelerometer)?] as usize,
+            floor_geom: id(ObjType::Geom, &spec.floor_geom)?,
+            fall_bodies: Vec::new(),
+            loops: Vec::new(),
+            stand_key: id(ObjType::Key, &spec.stand_keyframe)?,
+            torque_limit: spec.motors.iter().map(|m| m.torque_limit).collect(),
+            motor_range: spec.motors.iter().map(|m| m.motor_range).collect(),
+            joint_range: spec.motors.iter().map(|m| m.joint_range).collect(),
+            nominal_actuated: Vec::new(),
+            nominal_joints: spec.nominal_joints(),
+            mirror_perm: Vec::new(),
+            mirror_sign: Vec::new(),
+            deviation_groups: DEVIATION_GROUPS.map(|g| spec.group(g).to_vec()),
+        };
+        for m in &spec.motors {
+            idx.actuators.push(id(ObjType::Actuator, &m.actuator)?);
+            let (drv, jnt) = (id(ObjType::Joint, &m.drives)?, id(ObjType::Joint, &m.joint)?);
+            idx.actuated_qpos.push(model.jnt_qposadr_of(drv));
+            idx.actuated_dof.push(model.jnt_dofadr_of(drv));
+            idx.joint_qpos.push(model.jnt_qposadr_of(jnt));
+            idx.joint_dof.push(model.jnt_dofadr_of(jnt));
         }
-        if model.actuator_forcelimited()[i] == 0 || !close(model.actuator_forcerange()[i], [-limit, limit]) {
-            return Err(format!(
-                "actuator '{}' forcerange is {:?}, the spec's torque limit is ±{limit} N·m",
-                act_names[i],
-                model.actuator_forcerange()[i]
-            ));
+        for (f, foot) in spec.feet.iter().enumerate() {
+            idx.foot_bodies[f] = id(ObjType::Body, &foot.body)?;
+            idx.foot_geoms[f] = id(ObjType::Geom, &foot.geom)?;
+            idx.foot_sites[f] = id(ObjType::Site, &foot.site)?;
         }
-        let expect_actuated = if kind == ModelKind::Closed { motor_ranges[i] } else { joint_ranges[i] };
-        for (name, j, want) in
-            [(&actuated[i], actuated_jnt[i], expect_actuated), (&joints[i], joint_jnt[i], joint_ranges[i])]
-        {
-            if model.jnt_limited()[j] == 0 || !close(model.jnt_range()[j], want) {
-                return Err(format!("joint '{name}' range is {:?}, the spec says {want:?}", model.jnt_range()[j]));
+        idx.fall_bodies = (1..model.nbody()).filter(|b| !idx.foot_bodies.contains(b)).collect();
+        for l in &spec.loops {
+            for e in &l.equality {
+                idx.loops.push(id(ObjType::Equality, e)?);
             }
         }
+        let key_qpos = model.key_qpos(idx.stand_key);
+        idx.nominal_actuated = idx.actuated_qpos.iter().map(|&a| key_qpos[a]).collect();
+        (idx.mirror_perm, idx.mirror_sign) = spec.mirror_map();
+        Ok(idx)
     }
-    Ok(())
+
+    /// The observation layout of this robot.
+    pub fn obs_layout(&self) -> ObsLayout {
+        ObsLayout::new(self.n_motors)
+    }
+
+    /// Whether the actuators drive other joints than the kinematic ones (a closed chain).
+    pub fn has_loops(&self) -> bool {
+        !self.loops.is_empty()
+    }
 }

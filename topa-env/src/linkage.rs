@@ -238,3 +238,97 @@ impl Linkage {
         Ok((j.transpose() * DVector::from_column_slice(tau_joint)).iter().copied().collect())
     }
 }
+
+/// Motor → joint maps for use every step: the identity (no loops), a constant matrix (a linear linkage such as
+/// TopA's parallelogram, detected by comparing the Jacobian across configurations), or the solver (nonlinear).
+pub enum JointMap {
+    Identity,
+    /// q_joint = J q_motor + c.
+    Linear {
+        j: DMatrix<f64>,
+        c: DVector<f64>,
+    },
+    Solve(Box<Linkage>),
+}
+
+/// Entries this close to an integer are that integer: the closure is solved to 1e-12, so an entry of TopA's M
+/// computed as 0.999999999999 is 1, and the linear map then reproduces M·q bit for bit.
+fn snap(x: f64) -> f64 {
+    if (x - x.round()).abs() < 1e-9 {
+        x.round()
+    } else {
+        x
+    }
+}
+
+impl JointMap {
+    pub fn new(spec: &RobotSpec, model: &Model) -> Result<JointMap> {
+        if spec.loops.is_empty() {
+            return Ok(JointMap::Identity);
+        }
+        let mut l = Linkage::new(spec, model)?;
+        let q0 = l.nominal_motors.clone();
+        let j0 = l.jacobian(&q0)?;
+        let mut linear = true;
+        for k in 0..4 {
+            let q: Vec<f64> = q0.iter().enumerate().map(|(i, x)| x + 0.1 * ((i + k) as f64 * 2.3).sin()).collect();
+            if let Ok(j) = l.jacobian(&q) {
+                linear &= (j - &j0).abs().max() < 1e-9;
+            }
+        }
+        if !linear {
+            return Ok(JointMap::Solve(Box::new(l)));
+        }
+        let j = j0.map(snap);
+        let qj0 = DVector::from_vec(l.joints(&q0)?);
+        let c = (qj0 - &j * DVector::from_column_slice(&q0)).map(snap);
+        Ok(JointMap::Linear { j, c })
+    }
+
+    /// Kinematic-joint angles for motor positions, into `out`.
+    pub fn positions(&mut self, motors: &[f64], out: &mut [f64]) -> Result<()> {
+        match self {
+            JointMap::Identity => out.copy_from_slice(motors),
+            JointMap::Linear { j, c } => {
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = (0..motors.len()).fold(0.0, |acc, k| acc + j[(i, k)] * motors[k]) + c[i];
+                }
+            }
+            JointMap::Solve(l) => out.copy_from_slice(&l.joints(motors)?),
+        }
+        Ok(())
+    }
+
+    /// Joint velocities for motor positions and velocities (J q̇_motor), into `out`.
+    pub fn velocities(&mut self, motors: &[f64], motor_vel: &[f64], out: &mut [f64]) -> Result<()> {
+        match self {
+            JointMap::Identity => out.copy_from_slice(motor_vel),
+            JointMap::Linear { j, .. } => {
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = (0..motor_vel.len()).fold(0.0, |acc, k| acc + j[(i, k)] * motor_vel[k]);
+                }
+            }
+            JointMap::Solve(l) => {
+                let jac = l.jacobian(motors)?;
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = (0..motor_vel.len()).fold(0.0, |acc, k| acc + jac[(i, k)] * motor_vel[k]);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The inverse of the constant matrix (joint → motor), entries snapped like the matrix's.
+    pub fn inverse_matrix(&self, n: usize) -> Option<DMatrix<f64>> {
+        self.matrix(n)?.try_inverse().map(|m| m.map(snap))
+    }
+
+    /// The constant matrix of an identity or linear map (what a deployment graph can embed).
+    pub fn matrix(&self, n: usize) -> Option<DMatrix<f64>> {
+        match self {
+            JointMap::Identity => Some(DMatrix::identity(n, n)),
+            JointMap::Linear { j, .. } => Some(j.clone()),
+            JointMap::Solve(_) => None,
+        }
+    }
+}

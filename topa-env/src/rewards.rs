@@ -2,7 +2,6 @@
 //! table), computed from a plain snapshot of the state so that each term can be checked on hand-made states.
 
 use crate::config::{AirTimeForm, RewardConfig};
-use crate::robot::{ANKLE, HIP_ROLL, HIP_YAW, N_LEG, N_MOTORS};
 
 pub const N_TERMS: usize = 15;
 
@@ -36,27 +35,27 @@ pub const TERMS: [Term; N_TERMS] = [
     Term {
         name: "body_height",
         weight: |c| c.body_height,
-        value: |c, x| kernel(sq(c.base_height_target - x.base_height), c.sigma_h),
+        value: |c, x| kernel(sq(x.base_height_target - x.base_height), c.sigma_h),
     },
     Term {
         name: "action_rate",
         weight: |c| c.action_rate,
-        value: |_, x| x.action.iter().zip(&x.last_action).map(|(a, b)| sq(a - b)).sum(),
+        value: |_, x| x.motors.action.iter().zip(&x.motors.last_action).map(|(a, b)| sq(a - b)).sum(),
     },
     Term {
         name: "hip_roll_deviation",
         weight: |c| c.hip_roll_deviation,
-        value: |c, x| kernel(both_legs(&x.joint_dev, HIP_ROLL), c.sigma_roll),
+        value: |c, x| kernel(group_sq(x, 0), c.sigma_roll),
     },
     Term {
         name: "hip_yaw_deviation",
         weight: |c| c.hip_yaw_deviation,
-        value: |c, x| kernel(both_legs(&x.joint_dev, HIP_YAW), c.sigma_yaw),
+        value: |c, x| kernel(group_sq(x, 1), c.sigma_yaw),
     },
     Term {
         name: "ankle_pitch_deviation",
         weight: |c| c.ankle_pitch_deviation,
-        value: |c, x| kernel(both_legs(&x.joint_dev, ANKLE), c.sigma_pitch),
+        value: |c, x| kernel(group_sq(x, 2), c.sigma_pitch),
     },
     Term { name: "joint_position_limits", weight: |c| c.joint_position_limits, value: |_, x| joint_limits(x) },
     Term { name: "motor_torque_limits", weight: |c| c.motor_torque_limits, value: |_, x| torque_limits(x) },
@@ -81,27 +80,19 @@ pub const TERM_NAMES: [&str; N_TERMS] = {
 };
 
 /// What the rewards look at, all in SI units; velocities in the robot (torso) frame.
-#[derive(Debug, Clone, Default)]
-pub struct RewardInputs {
+#[derive(Debug, Clone)]
+pub struct RewardInputs<'a> {
     /// Commanded (v_x, v_y, w_z) — the command the policy observes.
     pub command: [f64; 3],
     pub lin_vel: [f64; 3],
     pub ang_vel: [f64; 3],
     /// Gravity direction in the robot frame (unit vector; (0, 0, −1) when upright).
     pub gravity: [f64; 3],
-    /// Torso height above the ground, m.
+    /// Torso height above the ground, and the body-height term's target, m.
     pub base_height: f64,
-    /// This step's and the previous step's position commands, as offsets from the nominal pose (rad).
-    pub action: [f64; N_MOTORS],
-    pub last_action: [f64; N_MOTORS],
-    /// Kinematic joint angles (hip roll … ankle pitch per leg), and their deviation from the nominal pose.
-    pub joint_pos: [f64; N_MOTORS],
-    pub joint_dev: [f64; N_MOTORS],
-    /// Soft joint limits [low, high] per joint.
-    pub joint_soft_limits: [[f64; 2]; N_MOTORS],
-    /// Motor torques and their soft limits, N·m.
-    pub motor_torque: [f64; N_MOTORS],
-    pub torque_soft_limit: [f64; N_MOTORS],
+    pub base_height_target: f64,
+    /// The per-motor quantities.
+    pub motors: &'a MotorInputs,
     /// Horizontal speed of each foot (left, right), m/s.
     pub foot_speed: [f64; 2],
     pub foot_contact: [bool; 2],
@@ -115,6 +106,40 @@ pub struct RewardInputs {
     pub foot_height: [f64; 2],
 }
 
+/// What the rewards read per motor (one entry per degree of freedom), kept by the env between steps.
+#[derive(Debug, Clone, Default)]
+pub struct MotorInputs {
+    /// This step's and the previous step's position commands, as offsets from the nominal pose (rad).
+    pub action: Vec<f64>,
+    pub last_action: Vec<f64>,
+    /// Kinematic joint angles, and their deviation from the nominal pose.
+    pub joint_pos: Vec<f64>,
+    pub joint_dev: Vec<f64>,
+    /// Soft joint limits [low, high] per joint.
+    pub joint_soft_limits: Vec<[f64; 2]>,
+    /// Motor torques and their soft limits, N·m.
+    pub motor_torque: Vec<f64>,
+    pub torque_soft_limit: Vec<f64>,
+    /// The joints of the deviation terms (hip roll, hip yaw, ankle pitch), as motor indices.
+    pub deviation_groups: [Vec<usize>; 3],
+}
+
+impl MotorInputs {
+    /// All zero for `n` motors, soft limits and groups empty-handed (set them before use).
+    pub fn zeros(n: usize) -> Self {
+        MotorInputs {
+            action: vec![0.0; n],
+            last_action: vec![0.0; n],
+            joint_pos: vec![0.0; n],
+            joint_dev: vec![0.0; n],
+            joint_soft_limits: vec![[f64::NEG_INFINITY, f64::INFINITY]; n],
+            motor_torque: vec![0.0; n],
+            torque_soft_limit: vec![f64::INFINITY; n],
+            deviation_groups: Default::default(),
+        }
+    }
+}
+
 fn sq(x: f64) -> f64 {
     x * x
 }
@@ -123,8 +148,9 @@ fn kernel(err_sq: f64, sigma: f64) -> f64 {
     (-err_sq / sigma).exp()
 }
 
-fn both_legs(dev: &[f64; N_MOTORS], dof: usize) -> f64 {
-    sq(dev[dof]) + sq(dev[N_LEG + dof])
+/// Σ of the squared deviations of a group's joints (in the spec's order: left, then right).
+fn group_sq(x: &RewardInputs, group: usize) -> f64 {
+    x.motors.deviation_groups[group].iter().map(|&i| sq(x.motors.joint_dev[i])).fold(0.0, |a, b| a + b)
 }
 
 fn relu(v: f64) -> f64 {
@@ -132,13 +158,15 @@ fn relu(v: f64) -> f64 {
 }
 
 fn joint_limits(x: &RewardInputs) -> f64 {
-    (0..N_MOTORS)
-        .map(|i| relu(x.joint_pos[i] - x.joint_soft_limits[i][1]) + relu(x.joint_soft_limits[i][0] - x.joint_pos[i]))
+    let m = x.motors;
+    (0..m.joint_pos.len())
+        .map(|i| relu(m.joint_pos[i] - m.joint_soft_limits[i][1]) + relu(m.joint_soft_limits[i][0] - m.joint_pos[i]))
         .sum()
 }
 
 fn torque_limits(x: &RewardInputs) -> f64 {
-    (0..N_MOTORS).map(|i| relu(x.motor_torque[i].abs() - x.torque_soft_limit[i])).sum()
+    let m = x.motors;
+    (0..m.motor_torque.len()).map(|i| relu(m.motor_torque[i].abs() - m.torque_soft_limit[i])).sum()
 }
 
 /// A motion is commanded (yaw included, so that turning in place steps too).
@@ -206,16 +234,30 @@ pub fn weighted_terms(c: &RewardConfig, x: &RewardInputs, scale: f64, out: &mut 
 mod tests {
     use super::*;
 
-    fn upright_perfect() -> RewardInputs {
+    /// TopA's ten motors: limits ±1 rad, torques ±10 N·m, groups hip roll (0, 5), hip yaw (1, 6), ankle (4, 9).
+    fn motors() -> MotorInputs {
+        let mut m = MotorInputs::zeros(10);
+        m.joint_soft_limits = vec![[-1.0, 1.0]; 10];
+        m.torque_soft_limit = vec![10.0; 10];
+        m.deviation_groups = [vec![0, 5], vec![1, 6], vec![4, 9]];
+        m
+    }
+
+    fn upright_perfect(m: &MotorInputs) -> RewardInputs<'_> {
         RewardInputs {
             command: [0.4, -0.1, 0.5],
             lin_vel: [0.4, -0.1, 0.0],
             ang_vel: [0.0, 0.0, 0.5],
             gravity: [0.0, 0.0, -1.0],
-            base_height: RewardConfig::default().base_height_target,
-            joint_soft_limits: [[-1.0, 1.0]; N_MOTORS],
-            torque_soft_limit: [10.0; N_MOTORS],
-            ..Default::default()
+            base_height: 0.56,
+            base_height_target: 0.56,
+            motors: m,
+            foot_speed: [0.0; 2],
+            foot_contact: [false; 2],
+            touchdown: [false; 2],
+            air_time: [0.0; 2],
+            mode_time: [0.0; 2],
+            foot_height: [0.0; 2],
         }
     }
 
@@ -223,7 +265,8 @@ mod tests {
     fn perfect_state_earns_each_positive_weight_and_no_penalty() {
         let c = RewardConfig::default();
         let mut out = [0.0; N_TERMS];
-        let total = weighted_terms(&c, &upright_perfect(), 1.0, &mut out);
+        let m = motors();
+        let total = weighted_terms(&c, &upright_perfect(&m), 1.0, &mut out);
         let w = weights(&c);
         for i in 0..N_TERMS {
             let expected = if ["feet_air_time"].contains(&TERM_NAMES[i]) || w[i] <= 0.0 { 0.0 } else { w[i] };
@@ -235,20 +278,21 @@ mod tests {
     #[test]
     fn each_term_matches_its_equation_on_a_known_state() {
         let c = RewardConfig::default();
-        let mut x = upright_perfect();
+        let mut m = motors();
+        m.action[0] = 0.5;
+        m.last_action[0] = 0.1;
+        m.joint_dev[0] = 0.1; // left hip roll
+        m.joint_dev[5] = -0.2; // right hip roll
+        m.joint_dev[6] = 0.3; // right hip yaw
+        m.joint_dev[4] = 0.2; // left ankle
+        m.joint_pos[2] = 1.3; // 0.3 past the soft upper limit
+        m.joint_pos[7] = -1.1; // 0.1 below the soft lower limit
+        m.motor_torque[3] = -14.0; // 4 N·m past its soft limit
+        let mut x = upright_perfect(&m);
         x.lin_vel = [0.1, 0.2, 0.3];
         x.ang_vel = [0.2, -0.4, 0.0];
         x.gravity = [0.1, -0.2, -0.97];
         x.base_height -= 0.03;
-        x.action[0] = 0.5;
-        x.last_action[0] = 0.1;
-        x.joint_dev[HIP_ROLL] = 0.1;
-        x.joint_dev[N_LEG + HIP_ROLL] = -0.2;
-        x.joint_dev[N_LEG + HIP_YAW] = 0.3;
-        x.joint_dev[ANKLE] = 0.2;
-        x.joint_pos[2] = 1.3; // 0.3 past the soft upper limit
-        x.joint_pos[7] = -1.1; // 0.1 below the soft lower limit
-        x.motor_torque[3] = -14.0; // 4 N·m past its soft limit
         x.foot_speed = [0.3, 0.7];
         x.foot_contact = [true, false];
         x.touchdown = [false, true];

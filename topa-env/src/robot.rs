@@ -54,6 +54,13 @@ impl ModelKind {
             (None, None) => Err("the policy file does not name the robot it was trained on".into()),
         }
     }
+    /// The bundled spec of this model, relative to the repository root.
+    pub fn spec_path(self) -> &'static str {
+        match self {
+            ModelKind::Closed => "assets/robots/topa_closed.toml",
+            ModelKind::Open => "assets/robots/topa_open.toml",
+        }
+    }
     /// The bundled MJCF file, relative to the repository's `assets/mjcf/`.
     pub fn file_name(self) -> &'static str {
         match self {

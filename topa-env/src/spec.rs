@@ -40,6 +40,8 @@ struct Raw {
     groups: BTreeMap<String, Spanned<Vec<String>>>,
     #[serde(default)]
     loops: Vec<RawLoop>,
+    #[serde(default)]
+    approximates: Option<Spanned<String>>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -130,6 +132,9 @@ pub struct RobotSpec {
     /// Reward-term joint groups: group name → indices into `motors` (their kinematic joints).
     pub groups: BTreeMap<String, Vec<usize>>,
     pub loops: Vec<Loop>,
+    /// For a simplified model (TopA's serial chain): the spec of the real robot it stands in for, which
+    /// policies trained on it are evaluated on. Its motors drive the real robot's kinematic joints.
+    pub approximates: Option<PathBuf>,
 }
 
 /// Where a spec's values came from, to point errors at lines.
@@ -163,6 +168,11 @@ impl RobotSpec {
             .map_err(|e| src.at(raw.mjcf.span(), format!("mjcf '{}' does not compile: {e}", raw.mjcf.get_ref())))?;
         let spec = resolve(&raw, &src, path, mjcf)?;
         check_against(&spec, &raw, &src, &model)?;
+        if let (Some(a), Some(at)) = (&spec.approximates, &raw.approximates) {
+            if !a.exists() {
+                return Err(src.at(at.span(), format!("approximates '{}': no such spec beside this one", at.get_ref())));
+            }
+        }
         Ok((spec, model))
     }
 
@@ -292,6 +302,7 @@ fn resolve(raw: &Raw, src: &Source, path: &Path, mjcf: PathBuf) -> Result<RobotS
         motors,
         groups,
         loops,
+        approximates: raw.approximates.as_ref().map(|a| path.parent().unwrap_or(Path::new(".")).join(a.get_ref())),
     })
 }
 

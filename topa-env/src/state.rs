@@ -1,11 +1,10 @@
 //! What the robot is doing right now, read off a `Data` in the robot's terms: base velocities in the torso
-//! frame, gravity direction, roll/pitch, motor and joint positions, velocities and torques, foot contacts.
+//! frame, gravity direction, roll/pitch, motor and joint positions, velocities and motor torques, foot contacts.
 
 use mujoco_sys::Data;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use crate::indices::RobotIndices;
-use crate::robot::{self, ModelKind, N_MOTORS};
 
 /// Minimum normal force for a foot to count as in contact, N (filters grazing contacts).
 pub const CONTACT_FORCE_THRESHOLD: f64 = 1.0;
@@ -23,17 +22,14 @@ pub struct RobotState {
     pub roll: f64,
     pub pitch: f64,
     pub yaw: f64,
-    /// Positions/velocities of the joints the actuators drive (motor space on the closed model).
-    pub actuated_pos: [f64; N_MOTORS],
-    pub actuated_vel: [f64; N_MOTORS],
-    /// Motor-space positions/velocities/torques (on the open model: mapped from joint space through M⁻¹, Mᵀ).
-    pub motor_pos: [f64; N_MOTORS],
-    pub motor_vel: [f64; N_MOTORS],
-    pub motor_torque: [f64; N_MOTORS],
-    /// Kinematic joint angles/velocities/torques (hip roll … ankle pitch).
-    pub joint_pos: [f64; N_MOTORS],
-    pub joint_vel: [f64; N_MOTORS],
-    pub joint_torque: [f64; N_MOTORS],
+    /// Positions, velocities and torques of the joints the actuators drive: the motors (on a serial model the
+    /// kinematic joints are the motors).
+    pub motor_pos: Vec<f64>,
+    pub motor_vel: Vec<f64>,
+    pub motor_torque: Vec<f64>,
+    /// Kinematic joint angles and velocities, one per degree of freedom.
+    pub joint_pos: Vec<f64>,
+    pub joint_vel: Vec<f64>,
     /// Normal contact force on each foot from the floor, N.
     pub foot_force: [f64; 2],
     /// Horizontal speed of each foot, m/s.
@@ -54,6 +50,13 @@ pub fn quat_of(q: &[f64]) -> UnitQuaternion<f64> {
 
 /// Reads the state; `d` must be after `forward`/`step` (contacts and velocities valid).
 pub fn read(d: &Data, idx: &RobotIndices) -> RobotState {
+    let mut s = RobotState::default();
+    read_into(d, idx, &mut s);
+    s
+}
+
+/// As `read`, into `s`'s buffers (no allocation once they have their size).
+pub fn read_into(d: &Data, idx: &RobotIndices, s: &mut RobotState) {
     let qpos = d.qpos();
     let qvel = d.qvel();
     let b = idx.base_qpos;
@@ -63,45 +66,27 @@ pub fn read(d: &Data, idx: &RobotIndices) -> RobotState {
     let lin = q.inverse_transform_vector(&world_lin);
     let g = q.inverse_transform_vector(&Vector3::new(0.0, 0.0, -1.0));
     let (roll, pitch, yaw) = q.euler_angles();
-    let mut s = RobotState {
-        base_pos: [qpos[b], qpos[b + 1], qpos[b + 2]],
-        base_quat: [qpos[b + 3], qpos[b + 4], qpos[b + 5], qpos[b + 6]],
-        lin_vel: [lin.x, lin.y, lin.z],
-        ang_vel: [qvel[idx.base_dof + 3], qvel[idx.base_dof + 4], qvel[idx.base_dof + 5]],
-        gravity: [g.x, g.y, g.z],
-        roll,
-        pitch,
-        yaw,
-        ..Default::default()
-    };
+    s.base_pos = [qpos[b], qpos[b + 1], qpos[b + 2]];
+    s.base_quat = [qpos[b + 3], qpos[b + 4], qpos[b + 5], qpos[b + 6]];
+    s.lin_vel = [lin.x, lin.y, lin.z];
+    s.ang_vel = [qvel[idx.base_dof + 3], qvel[idx.base_dof + 4], qvel[idx.base_dof + 5]];
+    s.gravity = [g.x, g.y, g.z];
+    (s.roll, s.pitch, s.yaw) = (roll, pitch, yaw);
     let force = d.actuator_force();
-    for i in 0..N_MOTORS {
-        s.actuated_pos[i] = qpos[idx.actuated_qpos[i]];
-        s.actuated_vel[i] = qvel[idx.actuated_dof[i]];
-        s.joint_pos[i] = qpos[idx.joint_qpos[i]];
-        s.joint_vel[i] = qvel[idx.joint_dof[i]];
-    }
-    let actuated_torque: [f64; N_MOTORS] = std::array::from_fn(|i| force[idx.actuators[i]]);
-    match idx.kind {
-        ModelKind::Closed => {
-            s.motor_pos = s.actuated_pos;
-            s.motor_vel = s.actuated_vel;
-            s.motor_torque = actuated_torque;
-            s.joint_torque = robot::motor_to_joint_torque(&actuated_torque);
-        }
-        ModelKind::Open => {
-            s.motor_pos = robot::joint_to_motor(&s.actuated_pos);
-            s.motor_vel = robot::joint_to_motor(&s.actuated_vel);
-            s.motor_torque = robot::joint_to_motor_torque(&actuated_torque);
-            s.joint_torque = actuated_torque;
-        }
-    }
+    let gather = |out: &mut Vec<f64>, src: &[f64], at: &[usize]| {
+        out.clear();
+        out.extend(at.iter().map(|&i| src[i]));
+    };
+    gather(&mut s.motor_pos, qpos, &idx.actuated_qpos);
+    gather(&mut s.motor_vel, qvel, &idx.actuated_dof);
+    gather(&mut s.motor_torque, force, &idx.actuators);
+    gather(&mut s.joint_pos, qpos, &idx.joint_qpos);
+    gather(&mut s.joint_vel, qvel, &idx.joint_dof);
     (s.foot_force, s.body_contact) = contact_forces(d, idx);
     for f in 0..2 {
         let v = d.body_velocity(idx.foot_bodies[f], false);
         s.foot_speed[f] = v[3].hypot(v[4]);
     }
-    s
 }
 
 /// Normal force of the floor on each foot (N), and whether any other robot body touches the floor.

@@ -151,3 +151,10 @@ fn kestrel_simulates_with_its_loops_closed() {
     }
     assert!(worst < 1e-4, "loop residual {worst} m");
 }
+
+#[test]
+fn kestrels_map_is_solved_not_linearised() {
+    let (spec, model, _) = kestrel();
+    let map = topa_env::linkage::JointMap::new(&spec, &model).unwrap();
+    assert!(map.matrix(12).is_none(), "the two-rod ankle is nonlinear: no constant matrix");
+}

@@ -92,3 +92,29 @@ fn open_model_maps_are_the_identity() {
     assert_eq!(l.joints(&q).unwrap(), q);
     assert_eq!(l.jacobian(&q).unwrap(), nalgebra::DMatrix::identity(N_MOTORS, N_MOTORS));
 }
+
+#[test]
+fn topas_linear_map_is_detected_and_exactly_m() {
+    use topa_env::linkage::JointMap;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/robots/topa_closed.toml");
+    let Ok((spec, model)) = RobotSpec::load(&path) else { panic!() };
+    let mut map = JointMap::new(&spec, &model).unwrap();
+    let j = map.matrix(N_MOTORS).expect("TopA's linkage is linear");
+    for i in 0..N_MOTORS {
+        let e: [f64; N_MOTORS] = std::array::from_fn(|k| if k == i { 1.0 } else { 0.0 });
+        let col = robot::motor_to_joint(&e);
+        for r in 0..N_MOTORS {
+            assert_eq!(j[(r, i)], col[r], "J[{r},{i}]");
+        }
+    }
+    // Bit for bit what M gives, positions and velocities.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+    let mut out = vec![0.0; N_MOTORS];
+    for _ in 0..50 {
+        let q = random_motors(&mut rng);
+        map.positions(&q, &mut out).unwrap();
+        assert_eq!(out, robot::motor_to_joint(&<[f64; N_MOTORS]>::try_from(q.clone()).unwrap()).to_vec());
+        map.velocities(&q, &q, &mut out).unwrap();
+        assert_eq!(out, robot::motor_to_joint(&<[f64; N_MOTORS]>::try_from(q.clone()).unwrap()).to_vec());
+    }
+}

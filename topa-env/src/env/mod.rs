@@ -13,9 +13,9 @@ mod snapshot;
 use crate::config::EnvConfig;
 use crate::error::{EnvError, Result};
 use crate::indices::RobotIndices;
+use crate::observation::{Block, ObsLayout};
 use crate::perturb::Perturbation;
-use crate::rewards::{self, RewardInputs, N_TERMS, TERM_NAMES};
-use crate::robot::{self, N_MOTORS};
+use crate::rewards::{self, MotorInputs, RewardInputs, N_TERMS, TERM_NAMES};
 use crate::sim2sim::{Sensed, Sim2Sim};
 use crate::state::{self, quat_of, RobotState};
 use crate::symmetry::{self, Symmetry};
@@ -24,7 +24,6 @@ use crate::task::{StepOutcome, Task};
 pub use crate::observation::{
     OBS_ANG_VEL, OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_LIN_VEL, OBS_Q, OBS_QD,
 };
-pub const ACT_DIM: usize = N_MOTORS;
 
 /// Model parameters before randomisation, restored at every reset.
 #[derive(Debug)]
@@ -40,11 +39,12 @@ pub struct TopaEnv {
     nominal: Arc<Nominal>,
     data: Data,
     rng: ChaCha8Rng,
-    nominal_actuated: [f64; N_MOTORS],
-    nominal_joints: [f64; N_MOTORS],
-    ctrl_range: [[f64; 2]; N_MOTORS],
-    joint_soft_limits: [[f64; 2]; N_MOTORS],
-    torque_soft_limit: [f64; N_MOTORS],
+    /// Where the observation's blocks are, for this robot's motor count.
+    layout: ObsLayout,
+    /// Per-step buffers: the clipped action, the motor targets, what the rewards read per motor.
+    action: Vec<f64>,
+    target: Vec<f64>,
+    motors: MotorInputs,
     /// Policy steps this env has run since it was made (drives the push curriculum).
     experience_steps: u64,
     // Episode state.
@@ -52,7 +52,7 @@ pub struct TopaEnv {
     command: [f64; 3],
     command_override: Option<[f64; 3]>,
     perturbation: Perturbation,
-    last_action: [f64; N_MOTORS],
+    last_action: Vec<f64>,
     air_time: [f64; 2],
     /// Time each foot has been in contact without a break, s.
     contact_time: [f64; 2],
@@ -74,7 +74,8 @@ impl TopaEnv {
     /// pick the env's own random stream, so a batch is deterministic whatever the thread count.
     pub fn new(model: Arc<Model>, cfg: Arc<EnvConfig>, seed: u64, index: u64) -> Result<Self> {
         cfg.validate()?;
-        let idx = Arc::new(RobotIndices::resolve(&model, cfg.model)?);
+        let (spec, _) = crate::assets::load_robot(&cfg)?;
+        let idx = Arc::new(RobotIndices::resolve(&model, &spec)?);
         Self::with_indices(model, cfg, idx, seed, index)
     }
 
@@ -105,14 +106,19 @@ impl TopaEnv {
         });
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(index);
-        let kind = cfg.model;
-        let joint_ranges = robot::per_motor(|m| m.joint_range);
         let soft = cfg.rewards.soft_joint_limit;
-        let joint_soft_limits = joint_ranges.map(|[lo, hi]| {
-            let (mid, half) = ((lo + hi) / 2.0, (hi - lo) / 2.0 * soft);
-            [mid - half, mid + half]
-        });
-        let torque_soft_limit = idx.torque_limit.map(|t| t * cfg.rewards.soft_torque_limit);
+        let n = idx.n_motors;
+        let mut motors = MotorInputs::zeros(n);
+        motors.joint_soft_limits = idx
+            .joint_range
+            .iter()
+            .map(|&[lo, hi]| {
+                let (mid, half) = ((lo + hi) / 2.0, (hi - lo) / 2.0 * soft);
+                [mid - half, mid + half]
+            })
+            .collect();
+        motors.torque_soft_limit = idx.torque_limit.iter().map(|t| t * cfg.rewards.soft_torque_limit).collect();
+        motors.deviation_groups = idx.deviation_groups.clone();
         let sim2sim = if cfg.sim2sim.active() {
             Some(Sim2Sim::new(Arc::new(cfg.sim2sim.clone()), model.clone(), &idx, seed, index)?)
         } else {
@@ -120,11 +126,10 @@ impl TopaEnv {
         };
         Ok(TopaEnv {
             data: Data::new(model)?,
-            nominal_actuated: robot::nominal_actuated(kind),
-            nominal_joints: robot::nominal_joints(),
-            ctrl_range: robot::actuated_range(kind),
-            joint_soft_limits,
-            torque_soft_limit,
+            layout: idx.obs_layout(),
+            action: vec![0.0; n],
+            target: vec![0.0; n],
+            motors,
             cfg,
             idx,
             nominal,
@@ -134,7 +139,7 @@ impl TopaEnv {
             command: [0.0; 3],
             command_override: None,
             perturbation: Perturbation::default(),
-            last_action: [0.0; N_MOTORS],
+            last_action: vec![0.0; n],
             air_time: [0.0; 2],
             contact_time: [0.0; 2],
             last_contact: [true; 2],
@@ -183,6 +188,16 @@ impl TopaEnv {
     pub fn episode_steps(&self) -> usize {
         self.step_count
     }
+    /// The body-height reward's target: the config's, or the robot spec's where the config leaves it at 0.
+    pub fn base_height_target(&self) -> f64 {
+        let t = self.cfg.rewards.base_height_target;
+        if t > 0.0 {
+            t
+        } else {
+            self.idx.spec.base_height_target
+        }
+    }
+
     /// The realistic-sim2sim state (estimator, sensors), if configured.
     pub fn sim2sim(&self) -> Option<&Sim2Sim> {
         self.sim2sim.as_ref()
@@ -191,8 +206,8 @@ impl TopaEnv {
     /// After editing the state through `data_mut`: recompute derived quantities and the observation.
     pub fn refresh(&mut self, obs: &mut [f32]) -> Result<()> {
         self.data.forward()?;
-        self.robot_state = state::read(&self.data, &self.idx);
-        let sensed = self.sim2sim.as_ref().map(|s| *s.latest());
+        state::read_into(&self.data, &self.idx, &mut self.robot_state);
+        let sensed = self.sim2sim.as_ref().map(|s| s.latest().clone());
         self.write_obs(obs, sensed.as_ref());
         Ok(())
     }
@@ -236,38 +251,39 @@ impl TopaEnv {
     /// The observation: the simulator's state, or with realistic sim2sim what the robot's computer `sensed`.
     fn write_obs(&mut self, obs: &mut [f32], sensed: Option<&Sensed>) {
         let s = &self.robot_state;
-        let truth = Sensed {
-            lin_vel: s.lin_vel,
-            ang_vel: s.ang_vel,
-            gravity: s.gravity,
-            actuated_pos: s.actuated_pos,
-            actuated_vel: s.actuated_vel,
+        let (lin_vel, ang_vel, gravity, pos, vel) = match sensed {
+            Some(x) => (x.lin_vel, x.ang_vel, x.gravity, &x.motor_pos, &x.motor_vel),
+            None => (s.lin_vel, s.ang_vel, s.gravity, &s.motor_pos, &s.motor_vel),
         };
-        let x = sensed.unwrap_or(&truth);
         let n = &self.cfg.noise;
         let on = n.enabled;
         let rng = &mut self.rng;
         let mut noise = |scale: f64| if on && scale > 0.0 { rng.random_range(-scale..=scale) } else { 0.0 };
+        let l = &self.layout;
+        let (lv, av, gr) = (l.offset(Block::LinVel), l.offset(Block::AngVel), l.offset(Block::Gravity));
         for i in 0..3 {
-            obs[OBS_LIN_VEL + i] = (x.lin_vel[i] + noise(n.lin_vel)) as f32;
-            obs[OBS_ANG_VEL + i] = (x.ang_vel[i] + noise(n.ang_vel)) as f32;
+            obs[lv + i] = (lin_vel[i] + noise(n.lin_vel)) as f32;
+            obs[av + i] = (ang_vel[i] + noise(n.ang_vel)) as f32;
         }
         let off = self.perturbation.gravity_offset;
-        let mut g = Vector3::from_fn(|i, _| x.gravity[i] + off[i] + noise(n.gravity));
+        let mut g = Vector3::from_fn(|i, _| gravity[i] + off[i] + noise(n.gravity));
         if g.norm() > 1e-9 {
             g.normalize_mut();
         }
         for i in 0..3 {
-            obs[OBS_GRAVITY + i] = g[i] as f32;
+            obs[gr + i] = g[i] as f32;
         }
-        for i in 0..N_MOTORS {
-            obs[OBS_Q + i] = (x.actuated_pos[i] - self.nominal_actuated[i] + noise(n.motor_pos)) as f32;
-            obs[OBS_QD + i] = (x.actuated_vel[i] + noise(n.motor_vel)) as f32;
-            obs[OBS_LAST_ACTION + i] = self.last_action[i] as f32;
+        let (q, qd, la) = (l.offset(Block::MotorPos), l.offset(Block::MotorVel), l.offset(Block::LastAction));
+        let nominal = &self.idx.nominal_actuated;
+        for i in 0..l.n_motors {
+            obs[q + i] = (pos[i] - nominal[i] + noise(n.motor_pos)) as f32;
+            obs[qd + i] = (vel[i] + noise(n.motor_vel)) as f32;
+            obs[la + i] = self.last_action[i] as f32;
         }
         let c = self.command();
+        let co = l.offset(Block::Command);
         for i in 0..3 {
-            obs[OBS_COMMAND + i] = c[i] as f32;
+            obs[co + i] = c[i] as f32;
         }
     }
 
@@ -343,15 +359,16 @@ impl TopaEnv {
 
 impl Task for TopaEnv {
     fn obs_dim(&self) -> usize {
-        OBS_DIM
+        self.layout.dim()
     }
     fn action_dim(&self) -> usize {
-        ACT_DIM
+        self.idx.n_motors
     }
 
     fn reset(&mut self, obs: &mut [f32]) -> Result<()> {
-        if obs.len() != OBS_DIM {
-            return Err(EnvError::Shape(format!("observation buffer has {} values, expected {OBS_DIM}", obs.len())));
+        let dim = self.layout.dim();
+        if obs.len() != dim {
+            return Err(EnvError::Shape(format!("observation buffer has {} values, expected {dim}", obs.len())));
         }
         if self.cfg.domain_rand.enabled {
             self.randomize_model()?;
@@ -367,7 +384,7 @@ impl Task for TopaEnv {
         }
         self.data.forward()?;
         self.step_count = 0;
-        self.last_action = [0.0; N_MOTORS];
+        self.last_action.iter_mut().for_each(|a| *a = 0.0);
         self.air_time = [0.0; 2];
         self.contact_time = [0.0; 2];
         self.last_contact = [true; 2];
@@ -375,7 +392,7 @@ impl Task for TopaEnv {
         self.sample_command();
         self.next_resample = self.steps_of(self.cfg.commands.resample_s);
         self.next_push = self.steps_of(self.cfg.push.interval_s);
-        self.robot_state = state::read(&self.data, &self.idx);
+        state::read_into(&self.data, &self.idx, &mut self.robot_state);
         let sensed = match &mut self.sim2sim {
             Some(s) => {
                 s.reset(&self.data, &self.idx, self.cfg.decimation)?;
@@ -388,25 +405,22 @@ impl Task for TopaEnv {
     }
 
     fn step(&mut self, action: &[f32], obs: &mut [f32]) -> StepOutcome {
-        assert_eq!(action.len(), ACT_DIM, "action has {} values, expected {ACT_DIM}", action.len());
+        let n = self.idx.n_motors;
+        assert_eq!(action.len(), n, "action has {} values, expected {n}", action.len());
         let clip = self.cfg.action_clip;
-        let a: [f64; N_MOTORS] = std::array::from_fn(|i| {
-            let v = action[i] as f64;
-            if v.is_finite() {
-                v.clamp(-clip, clip)
-            } else {
-                0.0
-            }
-        });
-        let target: [f64; N_MOTORS] = std::array::from_fn(|i| {
-            (self.nominal_actuated[i] + self.cfg.action_scale * a[i])
-                .clamp(self.ctrl_range[i][0], self.ctrl_range[i][1])
-        });
+        for (a, &v) in self.action.iter_mut().zip(action) {
+            let v = v as f64;
+            *a = if v.is_finite() { v.clamp(-clip, clip) } else { 0.0 };
+        }
+        for i in 0..n {
+            let [lo, hi] = self.idx.motor_range[i];
+            self.target[i] = (self.idx.nominal_actuated[i] + self.cfg.action_scale * self.action[i]).clamp(lo, hi);
+        }
         match &mut self.sim2sim {
-            Some(s) => s.set_target(target),
+            Some(s) => s.set_target(&self.target),
             None => {
-                for i in 0..N_MOTORS {
-                    self.data.ctrl_mut()[self.idx.actuators[i]] = target[i];
+                for i in 0..n {
+                    self.data.ctrl_mut()[self.idx.actuators[i]] = self.target[i];
                 }
             }
         }
@@ -416,7 +430,7 @@ impl Task for TopaEnv {
         }
         self.step_count += 1;
         self.experience_steps += 1;
-        self.robot_state = state::read(&self.data, &self.idx);
+        state::read_into(&self.data, &self.idx, &mut self.robot_state);
         let dt = self.cfg.policy_dt();
         // Contact with a one-step memory, as legged_gym does: a single missed contact is not a touchdown.
         let contact = self.robot_state.foot_contact();
@@ -427,21 +441,27 @@ impl Task for TopaEnv {
             self.contact_time[f] = if contact[f] { self.contact_time[f] + dt } else { 0.0 };
         }
         let air_at_touchdown = self.air_time;
+        // The paper's a_t are position commands: the action rate is measured on the targets (rad).
+        let scale_a = self.cfg.action_scale;
+        let m = &mut self.motors;
+        for i in 0..n {
+            m.action[i] = self.action[i] * scale_a;
+            m.last_action[i] = self.last_action[i] * scale_a;
+            m.joint_pos[i] = self.robot_state.joint_pos[i];
+            m.joint_dev[i] = self.robot_state.joint_pos[i] - self.idx.nominal_joints[i];
+            m.motor_torque[i] = self.robot_state.motor_torque[i];
+        }
+        let command = self.command();
+        let base_height_target = self.base_height_target();
         let s = &self.robot_state;
         let inputs = RewardInputs {
-            command: self.command(),
+            command,
             lin_vel: s.lin_vel,
             ang_vel: s.ang_vel,
             gravity: s.gravity,
             base_height: s.base_pos[2],
-            // The paper's a_t are position commands: the action rate is measured on the targets (rad).
-            action: a.map(|x| x * self.cfg.action_scale),
-            last_action: self.last_action.map(|x| x * self.cfg.action_scale),
-            joint_pos: s.joint_pos,
-            joint_dev: std::array::from_fn(|i| s.joint_pos[i] - self.nominal_joints[i]),
-            joint_soft_limits: self.joint_soft_limits,
-            motor_torque: s.motor_torque,
-            torque_soft_limit: self.torque_soft_limit,
+            base_height_target,
+            motors: &self.motors,
             foot_speed: s.foot_speed,
             foot_contact: contact,
             touchdown,
@@ -457,7 +477,7 @@ impl Task for TopaEnv {
             }
         }
         self.last_contact = contact;
-        self.last_action = a;
+        self.last_action.copy_from_slice(&self.action);
 
         let fell = self.cfg.termination.enabled && self.has_fallen();
         let time_out = !fell && self.step_count >= self.cfg.max_episode_steps();
@@ -482,7 +502,7 @@ impl Task for TopaEnv {
         &self.terms
     }
     fn symmetry(&self) -> Option<Symmetry> {
-        Some(symmetry::topa())
+        Some(symmetry::for_layout(&self.layout, &self.idx.mirror_perm, &self.idx.mirror_sign))
     }
     fn perturbation_channels(&self) -> Vec<trainer::PerturbationChannel> {
         crate::perturb::channels(&self.cfg.adversary)

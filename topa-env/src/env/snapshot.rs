@@ -3,7 +3,6 @@
 use super::TopaEnv;
 use crate::error::{EnvError, Result};
 use crate::perturb::Perturbation;
-use crate::robot::N_MOTORS;
 use crate::{state, task};
 
 impl TopaEnv {
@@ -96,7 +95,8 @@ impl TopaEnv {
             foot_force: [arr3(&p[6..9]), arr3(&p[9..12])],
             torso_force_local: torso,
         };
-        self.last_action.copy_from_slice(take(N_MOTORS)?);
+        let n = self.last_action.len();
+        self.last_action.copy_from_slice(take(n)?);
         self.air_time.copy_from_slice(take(2)?);
         self.contact_time.copy_from_slice(take(2)?);
         let need = 7 + task::RNG_WORDS;
@@ -116,7 +116,7 @@ impl TopaEnv {
         }
         // Derived quantities (contacts, velocities) for the observation and the next reward.
         self.data.forward()?;
-        self.robot_state = state::read(&self.data, &self.idx);
+        state::read_into(&self.data, &self.idx, &mut self.robot_state);
         Ok((fi, need))
     }
 }

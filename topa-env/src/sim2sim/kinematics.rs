@@ -9,7 +9,6 @@ use nalgebra::Vector3;
 
 use crate::error::Result;
 use crate::indices::RobotIndices;
-use crate::robot::N_MOTORS;
 
 /// One foot relative to the IMU, in the torso frame.
 #[derive(Debug, Clone, Copy, Default)]
@@ -21,8 +20,8 @@ pub struct FootKinematics {
 
 pub struct LegKinematics {
     data: Data,
-    joint_qpos: [usize; N_MOTORS],
-    joint_dof: [usize; N_MOTORS],
+    joint_qpos: Vec<usize>,
+    joint_dof: Vec<usize>,
     foot_sites: [usize; 2],
     imu_site: usize,
     base_qpos: usize,
@@ -35,8 +34,8 @@ impl LegKinematics {
         data.reset_keyframe(idx.stand_key)?;
         Ok(LegKinematics {
             data,
-            joint_qpos: idx.joint_qpos,
-            joint_dof: idx.joint_dof,
+            joint_qpos: idx.joint_qpos.clone(),
+            joint_dof: idx.joint_dof.clone(),
             foot_sites: idx.foot_sites,
             imu_site: idx.imu_site,
             base_qpos: idx.base_qpos,
@@ -44,19 +43,19 @@ impl LegKinematics {
         })
     }
 
-    /// For joint angles and velocities (hip roll … ankle pitch, both legs): each foot relative to the IMU.
-    pub fn feet(&mut self, joints: &[f64; N_MOTORS], joint_vel: &[f64; N_MOTORS]) -> &[FootKinematics] {
+    /// For kinematic-joint angles and velocities (one per degree of freedom): each foot relative to the IMU.
+    pub fn feet(&mut self, joints: &[f64], joint_vel: &[f64]) -> &[FootKinematics] {
         let b = self.base_qpos;
         {
             let q = self.data.qpos_mut();
             q[b..b + 7].copy_from_slice(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
-            for i in 0..N_MOTORS {
-                q[self.joint_qpos[i]] = joints[i];
+            for (&a, &j) in self.joint_qpos.iter().zip(joints) {
+                q[a] = j;
             }
         }
         self.data.qvel_mut().iter_mut().for_each(|v| *v = 0.0);
-        for i in 0..N_MOTORS {
-            self.data.qvel_mut()[self.joint_dof[i]] = joint_vel[i];
+        for (&a, &v) in self.joint_dof.iter().zip(joint_vel) {
+            self.data.qvel_mut()[a] = v;
         }
         if self.data.kinematics().is_err() {
             // Non-finite encoder values: keep the last feet; the filter refuses non-finite input anyway.

@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::Result;
 use crate::indices::RobotIndices;
-use crate::robot::{self, N_LEG, N_MOTORS};
+use crate::linkage::JointMap;
 use crate::state::{self, quat_of};
 use crate::task;
 use estimator::{ContactKf, EstimatorConfig, EstimatorInput};
@@ -72,17 +72,29 @@ pub struct LatencyConfig {
 
 /// Torque–speed limit of the motors (MuJoCo's actuators have a fixed force range): full torque up to
 /// `full_torque_speed`, then falling linearly to zero at `no_load_speed` while the motor drives in the direction it
-/// turns; braking keeps the full torque. Per leg degree of freedom (hip roll, yaw, pitch, knee, ankle), rad/s
-/// at the output.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+/// turns; braking keeps the full torque. Per degree of freedom of a leg, in the robot's motor order (TopA: hip
+/// roll, yaw, pitch, knee, ankle), the same for both legs; rad/s at the output.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
 pub struct TorqueSpeedConfig {
     pub enabled: bool,
-    pub full_torque_speed: [f64; N_LEG],
-    pub no_load_speed: [f64; N_LEG],
+    pub full_torque_speed: Vec<f64>,
+    pub no_load_speed: Vec<f64>,
 }
 
 impl TorqueSpeedConfig {
+    /// The table must cover one leg of a robot with `n_motors` motors (two legs of n/2).
+    pub fn check_motors(&self, n_motors: usize) -> std::result::Result<(), String> {
+        if self.enabled && self.full_torque_speed.len() * 2 != n_motors {
+            return Err(format!(
+                "sim2sim.torque_speed lists {} speeds per leg, the robot has {} motors per leg",
+                self.full_torque_speed.len(),
+                n_motors / 2
+            ));
+        }
+        Ok(())
+    }
+
     /// The largest torque in the direction of motion at output speed `speed`, for peak torque `peak`.
     pub fn limit(&self, dof: usize, peak: f64, speed: f64) -> f64 {
         let (w1, w0) = (self.full_torque_speed[dof], self.no_load_speed[dof]);
@@ -126,9 +138,12 @@ impl Sim2SimConfig {
             return Err("sim2sim.encoders: counts_per_rev and velocity_noise must be ≥ 0".into());
         }
         let t = &self.torque_speed;
-        if t.enabled
-            && (0..N_LEG).any(|i| !(t.full_torque_speed[i] >= 0.0 && t.no_load_speed[i] > t.full_torque_speed[i]))
-        {
+        if t.enabled && t.full_torque_speed.len() != t.no_load_speed.len() {
+            return Err(
+                "sim2sim.torque_speed: full_torque_speed and no_load_speed need one value per leg joint each".into()
+            );
+        }
+        if t.enabled && t.full_torque_speed.iter().zip(&t.no_load_speed).any(|(&w1, &w0)| !(w1 >= 0.0 && w0 > w1)) {
             return Err("sim2sim.torque_speed: need 0 ≤ full_torque_speed < no_load_speed for every joint".into());
         }
         let f = &self.estimator.filter;
@@ -152,14 +167,15 @@ impl Sim2SimConfig {
 }
 
 /// What the robot's computer knows after a step.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Sensed {
     /// Base linear velocity in the torso frame (estimated, or the simulator's when the filter is off).
     pub lin_vel: [f64; 3],
     pub ang_vel: [f64; 3],
     pub gravity: [f64; 3],
-    pub actuated_pos: [f64; N_MOTORS],
-    pub actuated_vel: [f64; N_MOTORS],
+    /// Encoder readings of the motors (the actuated joints).
+    pub motor_pos: Vec<f64>,
+    pub motor_vel: Vec<f64>,
 }
 
 /// One env's realistic-sim2sim state.
@@ -172,8 +188,8 @@ pub struct Sim2Sim {
     kf: ContactKf,
     kin: LegKinematics,
     obs_delay: Delay<Sensed>,
-    action_delay: Delay<[f64; N_MOTORS]>,
-    target: [f64; N_MOTORS],
+    action_delay: Delay<Vec<f64>>,
+    target: Vec<f64>,
     latest: Sensed,
     /// The IMU's latest attitude and specific-force readings (world ← IMU; IMU frame).
     imu_orientation: UnitQuaternion<f64>,
@@ -182,7 +198,11 @@ pub struct Sim2Sim {
     pub estimate_world: Vector3<f64>,
     /// Filter resets after invalid sensor values, since the env was made.
     pub filter_resets: u64,
-    peak_torque: [f64; N_MOTORS],
+    peak_torque: Vec<f64>,
+    /// Encoder readings → kinematic joints, as the robot's computer maps them (the linkage, or M where linear).
+    joint_map: JointMap,
+    joints: Vec<f64>,
+    joint_vel: Vec<f64>,
 }
 
 /// Standard gravity the accelerometer's specific force is corrected by, m/s² (the MJCF's).
@@ -196,22 +216,29 @@ impl Sim2Sim {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(index + STREAM_OFFSET);
         let delay = cfg.latency;
+        let n = idx.n_motors;
+        cfg.torque_speed.check_motors(n).map_err(crate::error::EnvError::Config)?;
+        let joint_map = JointMap::new(&idx.spec, &model)?;
+        let empty = Sensed { motor_pos: vec![0.0; n], motor_vel: vec![0.0; n], ..Sensed::default() };
         Ok(Sim2Sim {
             kf: ContactKf::new(cfg.estimator.filter.clone(), 2),
             kin: LegKinematics::new(model, idx)?,
-            obs_delay: Delay::new(delay.observation_policy_steps, Sensed::default()),
-            action_delay: Delay::new(0, [0.0; N_MOTORS]),
+            obs_delay: Delay::new(delay.observation_policy_steps, empty.clone()),
+            action_delay: Delay::new(0, vec![0.0; n]),
             rng,
             gyro: Noise3::default(),
             accel: Noise3::default(),
             orientation: Noise3::default(),
-            target: [0.0; N_MOTORS],
-            latest: Sensed::default(),
+            target: vec![0.0; n],
+            latest: empty,
             imu_orientation: UnitQuaternion::identity(),
             imu_accel: [0.0; 3],
             estimate_world: Vector3::zeros(),
             filter_resets: 0,
-            peak_torque: idx.torque_limit,
+            peak_torque: idx.torque_limit.clone(),
+            joint_map,
+            joints: vec![0.0; n],
+            joint_vel: vec![0.0; n],
             cfg,
         })
     }
@@ -226,35 +253,36 @@ impl Sim2Sim {
         self.gyro.reset(&c.gyro, &mut self.rng);
         self.accel.reset(&c.accel, &mut self.rng);
         self.orientation.reset(&c.orientation, &mut self.rng);
-        let ctrl: [f64; N_MOTORS] = std::array::from_fn(|i| d.ctrl()[idx.actuators[i]]);
-        self.target = ctrl;
+        let ctrl: Vec<f64> = idx.actuators.iter().map(|&a| d.ctrl()[a]).collect();
+        self.target.copy_from_slice(&ctrl);
         let l = c.latency;
         self.action_delay = Delay::new(l.action_policy_steps * decimation + l.action_physics_steps, ctrl);
         self.sense(d, idx, 0.0)?;
-        self.reset_filter(idx);
+        self.reset_filter(idx)?;
         self.sense_velocity(d, idx);
-        self.obs_delay.reset(self.latest);
+        self.obs_delay.reset(self.latest.clone());
         Ok(())
     }
 
     /// The policy's new motor targets (applied through the action delay).
-    pub fn set_target(&mut self, target: [f64; N_MOTORS]) {
-        self.target = target;
+    pub fn set_target(&mut self, target: &[f64]) {
+        self.target.copy_from_slice(target);
     }
 
     /// Before each `mj_step`: the delayed targets and the torque–speed limits go into the model and data.
     pub fn before_physics_step(&mut self, d: &mut Data, idx: &RobotIndices) {
-        let applied = self.action_delay.push(self.target);
-        for i in 0..N_MOTORS {
-            d.ctrl_mut()[idx.actuators[i]] = applied[i];
+        let applied = self.action_delay.push(self.target.clone());
+        for (&a, &u) in idx.actuators.iter().zip(&applied) {
+            d.ctrl_mut()[a] = u;
         }
-        let ts = self.cfg.torque_speed;
+        let ts = &self.cfg.torque_speed;
         if ts.enabled {
             let speeds: Vec<f64> = idx.actuators.iter().map(|&a| d.actuator_velocity()[a]).collect();
+            let per_leg = ts.full_torque_speed.len();
             let m = d.model_mut();
-            for i in 0..N_MOTORS {
+            for i in 0..idx.n_motors {
                 let peak = self.peak_torque[i];
-                let lim = ts.limit(i % N_LEG, peak, speeds[i]);
+                let lim = ts.limit(i % per_leg, peak, speeds[i]);
                 // Driving in the direction of motion is limited; braking against it keeps the peak torque.
                 m.actuator_forcerange_mut()[idx.actuators[i]] =
                     if speeds[i] >= 0.0 { [-peak, lim] } else { [-lim, peak] };
@@ -275,7 +303,7 @@ impl Sim2Sim {
                         self.filter_resets
                     );
                 }
-                self.reset_filter(idx);
+                self.reset_filter(idx)?;
             }
         }
         self.sense_velocity(d, idx);
@@ -284,7 +312,7 @@ impl Sim2Sim {
 
     /// What the policy sees this step: the readings of `observation_policy_steps` ago.
     pub fn sensed(&mut self) -> Sensed {
-        self.obs_delay.push(self.latest)
+        self.obs_delay.push(self.latest.clone())
     }
 
     /// The newest readings (no observation delay).
@@ -308,9 +336,9 @@ impl Sim2Sim {
             let a = &d.sensordata()[idx.imu_accel..idx.imu_accel + 3];
             self.imu_accel = self.accel.corrupt(&c.accel, [a[0], a[1], a[2]], dt, &mut self.rng);
         }
-        for i in 0..N_MOTORS {
-            self.latest.actuated_pos[i] = c.encoders.quantise(d.qpos()[idx.actuated_qpos[i]]);
-            self.latest.actuated_vel[i] = c.encoders.velocity(d.qvel()[idx.actuated_dof[i]], &mut self.rng);
+        for i in 0..idx.n_motors {
+            self.latest.motor_pos[i] = c.encoders.quantise(d.qpos()[idx.actuated_qpos[i]]);
+            self.latest.motor_vel[i] = c.encoders.velocity(d.qvel()[idx.actuated_dof[i]], &mut self.rng);
         }
         Ok(())
     }
@@ -328,9 +356,11 @@ impl Sim2Sim {
 
     fn filter_input(&mut self, d: &Data, idx: &RobotIndices) -> EstimatorInput {
         let r = self.imu_orientation;
-        let joints = joint_space(idx, &self.latest.actuated_pos);
-        let joint_vel = joint_space(idx, &self.latest.actuated_vel);
-        let feet = self.kin.feet(&joints, &joint_vel);
+        // Encoders the linkage cannot map (non-finite, out of reach): the filter refuses the non-finite input.
+        if self.map_joints().is_err() {
+            self.joints.iter_mut().for_each(|q| *q = f64::NAN);
+        }
+        let feet = self.kin.feet(&self.joints, &self.joint_vel);
         let w = Vector3::from(self.latest.ang_vel);
         let accel = r.transform_vector(&Vector3::from(self.imu_accel)) + Vector3::new(0.0, 0.0, -GRAVITY);
         let (forces, _) = state::contact_forces(d, idx);
@@ -345,14 +375,21 @@ impl Sim2Sim {
 
     /// Restarts the filter at rest, the base as high above the ground as the feet are below it (what the robot
     /// knows from its own kinematics when it stands).
-    fn reset_filter(&mut self, idx: &RobotIndices) {
-        let joints = joint_space(idx, &self.latest.actuated_pos);
-        let joint_vel = joint_space(idx, &self.latest.actuated_vel);
+    fn reset_filter(&mut self, _idx: &RobotIndices) -> Result<()> {
+        self.map_joints()?;
         let r = self.imu_orientation;
         let feet: Vec<Vector3<f64>> =
-            self.kin.feet(&joints, &joint_vel).iter().map(|f| r.transform_vector(&f.position)).collect();
+            self.kin.feet(&self.joints, &self.joint_vel).iter().map(|f| r.transform_vector(&f.position)).collect();
         let height = -feet.iter().map(|f| f.z).sum::<f64>() / feet.len() as f64;
         self.kf.reset(height, &feet);
+        Ok(())
+    }
+
+    /// Kinematic joints from the latest encoder readings.
+    fn map_joints(&mut self) -> Result<()> {
+        let (p, v) = (&self.latest.motor_pos, &self.latest.motor_vel);
+        self.joint_map.positions(p, &mut self.joints)?;
+        self.joint_map.velocities(p, v, &mut self.joint_vel)
     }
 
     /// Appends the sim2sim state (snapshots for exact resume of a training run that uses it).
@@ -363,9 +400,7 @@ impl Sim2Sim {
         self.kf.save(f);
         f.extend_from_slice(&self.target);
         for s in self.obs_delay.items() {
-            f.extend(
-                s.lin_vel.iter().chain(&s.ang_vel).chain(&s.gravity).chain(&s.actuated_pos).chain(&s.actuated_vel),
-            );
+            f.extend(s.lin_vel.iter().chain(&s.ang_vel).chain(&s.gravity).chain(&s.motor_pos).chain(&s.motor_vel));
         }
         for a in self.action_delay.items() {
             f.extend_from_slice(a);
@@ -376,11 +411,8 @@ impl Sim2Sim {
 
     /// Inverse of `save`; returns the values consumed.
     pub fn load(&mut self, f: &[f64], u: &[u64]) -> Result<(usize, usize)> {
-        let need = 9
-            + self.kf.saved_len()
-            + N_MOTORS
-            + self.obs_delay.delay() * (9 + 2 * N_MOTORS)
-            + self.action_delay.delay() * N_MOTORS;
+        let n = self.target.len();
+        let need = 9 + self.kf.saved_len() + n + self.obs_delay.delay() * (9 + 2 * n) + self.action_delay.delay() * n;
         if f.len() < need || u.len() < task::RNG_WORDS + 1 {
             return Err(crate::error::EnvError::Shape(
                 "env snapshot has no (or a different) realistic-sim2sim state for this config".into(),
@@ -392,9 +424,9 @@ impl Sim2Sim {
             k += 3;
         }
         k += self.kf.load(&f[k..]);
-        self.target.copy_from_slice(&f[k..k + N_MOTORS]);
-        k += N_MOTORS;
-        let per = 9 + 2 * N_MOTORS;
+        self.target.copy_from_slice(&f[k..k + n]);
+        k += n;
+        let per = 9 + 2 * n;
         let items: Vec<Sensed> = (0..self.obs_delay.delay())
             .map(|j| {
                 let s = &f[k + j * per..k + (j + 1) * per];
@@ -402,27 +434,19 @@ impl Sim2Sim {
                     lin_vel: [s[0], s[1], s[2]],
                     ang_vel: [s[3], s[4], s[5]],
                     gravity: [s[6], s[7], s[8]],
-                    actuated_pos: std::array::from_fn(|i| s[9 + i]),
-                    actuated_vel: std::array::from_fn(|i| s[9 + N_MOTORS + i]),
+                    motor_pos: s[9..9 + n].to_vec(),
+                    motor_vel: s[9 + n..9 + 2 * n].to_vec(),
                 }
             })
             .collect();
         k += per * items.len();
         self.obs_delay.set_items(items);
-        let n = self.action_delay.delay();
-        let acts: Vec<[f64; N_MOTORS]> = (0..n).map(|j| std::array::from_fn(|i| f[k + j * N_MOTORS + i])).collect();
-        k += n * N_MOTORS;
+        let delayed = self.action_delay.delay();
+        let acts: Vec<Vec<f64>> = (0..delayed).map(|j| f[k + j * n..k + (j + 1) * n].to_vec()).collect();
+        k += delayed * n;
         self.action_delay.set_items(acts);
         self.rng = task::load_rng(u);
         self.filter_resets = u[task::RNG_WORDS];
         Ok((k, task::RNG_WORDS + 1))
-    }
-}
-
-/// Joint-space values (hip roll … ankle pitch) from the actuated space of the model the env runs.
-fn joint_space(idx: &RobotIndices, actuated: &[f64; N_MOTORS]) -> [f64; N_MOTORS] {
-    match idx.kind {
-        robot::ModelKind::Closed => robot::motor_to_joint(actuated),
-        robot::ModelKind::Open => *actuated,
     }
 }
