@@ -11,6 +11,7 @@ pub mod info;
 pub mod mpi_comm;
 pub mod play;
 pub mod plots;
+pub mod push_grid;
 pub mod recording;
 pub mod train_cmd;
 pub mod video;

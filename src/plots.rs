@@ -92,7 +92,7 @@ fn draw_series(
 }
 
 /// One push-grid heatmap per policy, side by side, with a shared colour bar (time to fall, s), as PNG and SVG.
-pub fn push_heatmaps(grids: &[(String, &crate::eval::push::PushGrid)], png: &Path, svg: &Path) -> Result<()> {
+pub fn push_heatmaps(grids: &[(String, &crate::push_grid::PushGrid)], png: &Path, svg: &Path) -> Result<()> {
     register_font();
     anyhow::ensure!(!grids.is_empty(), "no push grids to plot");
     let (w, h) = (520 * grids.len() as u32 + 140, 560);
@@ -115,7 +115,7 @@ fn color_of(t: f64, window: f64) -> RGBColor {
 
 fn draw_heatmaps<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    grids: &[(String, &crate::eval::push::PushGrid)],
+    grids: &[(String, &crate::push_grid::PushGrid)],
 ) -> Result<()>
 where
     DB::ErrorType: 'static,

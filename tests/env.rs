@@ -91,13 +91,18 @@ fn mirror_into(src: &TopaEnv, dst: &mut TopaEnv, obs: &mut [f32]) {
     dst.refresh(obs).unwrap();
 }
 
-#[test]
-fn closed_model_dynamics_are_mirror_equivariant() {
-    let sym = symmetry::topa();
+/// Steps a robot and its mirror image with mirrored actions and commands; returns the largest difference between
+/// the mirrored observation of the one and the observation of the other. The maps are the env's own (derived
+/// from the robot's spec).
+fn mirror_equivariance(robot: &str) -> f32 {
+    let mut cfg = quiet(ModelKind::Closed);
+    cfg.robot = robot.into();
     let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let mut a = env(quiet(ModelKind::Closed), 3);
-    let mut b = env(quiet(ModelKind::Closed), 4);
-    let (mut oa, mut ob) = (vec![0.0; OBS_DIM], vec![0.0; OBS_DIM]);
+    let mut a = env(cfg.clone(), 3);
+    let mut b = env(cfg, 4);
+    let sym = a.symmetry().unwrap();
+    let (n, dim) = (a.action_dim(), a.obs_dim());
+    let (mut oa, mut ob) = (vec![0.0; dim], vec![0.0; dim]);
     a.reset(&mut oa).unwrap();
     b.reset(&mut ob).unwrap();
     let cmd = [0.3, 0.2, 0.5];
@@ -105,26 +110,39 @@ fn closed_model_dynamics_are_mirror_equivariant() {
     b.set_command_override(Some([cmd[0], -cmd[1], -cmd[2]]));
     // Drive A into an asymmetric, physically consistent state.
     for _ in 0..10 {
-        let act: Vec<f32> = (0..10).map(|_| rng.random_range(-0.5..0.5)).collect();
+        let act: Vec<f32> = (0..n).map(|_| rng.random_range(-0.5..0.5)).collect();
         a.step(&act, &mut oa);
     }
     let mut worst: f32 = 0.0;
     for _ in 0..5 {
         mirror_into(&a, &mut b, &mut ob);
-        let act: Vec<f32> = (0..10).map(|_| rng.random_range(-0.5..0.5)).collect();
-        let mut act_m = vec![0.0; 10];
+        let act: Vec<f32> = (0..n).map(|_| rng.random_range(-0.5..0.5)).collect();
+        let mut act_m = vec![0.0; n];
         sym.act.apply(&act, &mut act_m);
         // Same previous action on both sides of the mirror.
         a.step(&act, &mut oa);
         b.step(&act_m, &mut ob);
-        let mut expect = vec![0.0; OBS_DIM];
+        let mut expect = vec![0.0; dim];
         sym.obs.apply(&oa, &mut expect);
-        for i in 0..OBS_DIM {
+        for i in 0..dim {
             worst = worst.max((expect[i] - ob[i]).abs());
         }
     }
-    eprintln!("equivariance: max |S_o(o') − o'(S state, S_a a)| = {worst:.2e}");
+    eprintln!("{robot}: max |S_o(o') − o'(S state, S_a a)| = {worst:.2e}");
+    worst
+}
+
+#[test]
+fn closed_model_dynamics_are_mirror_equivariant() {
+    assert_eq!(env(quiet(ModelKind::Closed), 1).symmetry(), Some(symmetry::topa()));
+    let worst = mirror_equivariance("assets/robots/topa_closed.toml");
     assert!(worst < 1e-3, "mirrored dynamics differ by {worst}: a sign in S_o/S_a or the model is wrong");
+}
+
+#[test]
+fn the_second_robots_dynamics_are_mirror_equivariant() {
+    let worst = mirror_equivariance("assets/robots/kestrel.toml");
+    assert!(worst < 1e-3, "Kestrel's mirrored dynamics differ by {worst}: a mirror sign in its spec is wrong");
 }
 
 fn rollout(threads: usize, seed: u64, steps: usize) -> (Vec<f32>, Vec<f32>, Vec<f32>) {

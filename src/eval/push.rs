@@ -3,35 +3,12 @@
 //! 10 s window; the time to fall (the env's fall test) per cell, `window` where it never falls.
 
 use anyhow::{ensure, Result};
-use serde::Serialize;
 use topa_env::TopaEnv;
 
 use super::runner::{run_batch, Experiment};
 use super::{EvalSettings, PolicyRunner};
 
-#[derive(Debug, Clone, Serialize, PartialEq)]
-pub struct PushGrid {
-    /// Force values along each axis, N (ascending).
-    pub axis: Vec<f64>,
-    /// Time to fall per cell, s, indexed `[iy * axis.len() + ix]` for force (axis[ix], axis[iy]).
-    pub t_fall: Vec<f64>,
-    pub window_s: f64,
-    /// The command held during the push.
-    pub command: [f64; 3],
-}
-
-impl PushGrid {
-    pub fn mean_t_fall(&self) -> f64 {
-        self.t_fall.iter().sum::<f64>() / self.t_fall.len() as f64
-    }
-    pub fn force(&self, cell: usize) -> [f64; 2] {
-        let n = self.axis.len();
-        [self.axis[cell % n], self.axis[cell / n]]
-    }
-    pub fn cells(&self) -> usize {
-        self.t_fall.len()
-    }
-}
+pub use crate::push_grid::PushGrid;
 
 /// Force values from −range to +range in `step` increments.
 pub fn axis(range: f64, step: f64) -> Result<Vec<f64>> {

@@ -11,6 +11,7 @@ pub mod observation;
 pub mod perturb;
 pub mod rewards;
 pub mod robot;
+pub mod robots;
 pub mod sim2sim;
 pub mod spec;
 pub mod state;

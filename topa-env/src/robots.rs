@@ -1,0 +1,53 @@
+//! Where robots are found: the repository's `assets/` (or an installed copy named by `$TOPA_ASSETS`), a config's
+//! robot spec by path, TopA's bundled MJCF by model.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use mujoco_sys::Model;
+
+use crate::config::EnvConfig;
+use crate::error::Result;
+use crate::robot::ModelKind;
+use crate::spec::RobotSpec;
+
+/// The repository root (where `assets/` lives), or `$TOPA_ASSETS/..` if set (an installed copy elsewhere).
+pub fn repo_dir() -> PathBuf {
+    match std::env::var_os("TOPA_ASSETS") {
+        Some(p) => PathBuf::from(p).join(".."),
+        None => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(".."),
+    }
+}
+
+/// `assets/mjcf/` of this repository, or `$TOPA_ASSETS` if set.
+pub fn mjcf_dir() -> PathBuf {
+    match std::env::var_os("TOPA_ASSETS") {
+        Some(p) => PathBuf::from(p),
+        None => repo_dir().join("assets/mjcf"),
+    }
+}
+
+pub fn model_path(kind: ModelKind) -> PathBuf {
+    mjcf_dir().join(kind.file_name())
+}
+
+/// Loads the bundled closed or open TopA model.
+pub fn load_model(kind: ModelKind) -> Result<Arc<Model>> {
+    Ok(Arc::new(Model::from_xml_path(model_path(kind))?))
+}
+
+/// Where a config's robot spec is: an absolute path, a path from the working folder, or from the repository root.
+pub fn robot_path(robot: &str) -> PathBuf {
+    let p = Path::new(robot);
+    if p.is_absolute() || p.exists() {
+        p.to_path_buf()
+    } else {
+        repo_dir().join(p)
+    }
+}
+
+/// The robot a config names: its spec, checked against its compiled MJCF.
+pub fn load_robot(cfg: &EnvConfig) -> Result<(Arc<RobotSpec>, Arc<Model>)> {
+    let (spec, model) = RobotSpec::load(&robot_path(&cfg.robot))?;
+    Ok((Arc::new(spec), Arc::new(model)))
+}
