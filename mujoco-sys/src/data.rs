@@ -266,6 +266,48 @@ impl Data {
         Some(unsafe { view(d.efc_J, d.nefc as usize * m.nv as usize) })
     }
 
+    /// Values in a state snapshot: qpos, qvel, act, ctrl, the solver's warm start (qacc_warmstart) and time —
+    /// what fixes the simulation's future for a given model.
+    pub fn state_len(&self) -> usize {
+        let m = self.model();
+        m.nq() + 2 * m.nv() + m.na() + m.nu() + 1
+    }
+
+    /// Appends the state snapshot (see `state_len`) to `out`: `load_state` continues the simulation bit for bit.
+    pub fn save_state(&self, out: &mut Vec<f64>) {
+        for arr in [self.qpos(), self.qvel(), self.act(), self.ctrl(), self.qacc_warmstart()] {
+            out.extend_from_slice(arr);
+        }
+        out.push(self.time());
+    }
+
+    /// Restores a snapshot from the front of `src`; returns how many values it read.
+    pub fn load_state(&mut self, src: &[f64]) -> Result<usize> {
+        let need = self.state_len();
+        if src.len() < need {
+            return Err(MujocoError::Invalid(format!(
+                "state snapshot of model '{}' needs {need} values, got {}",
+                self.model().name(),
+                src.len()
+            )));
+        }
+        let m = self.model();
+        let (nq, nv, na, nu) = (m.nq(), m.nv(), m.na(), m.nu());
+        let mut at = 0;
+        let mut take = |n: usize| {
+            let s = &src[at..at + n];
+            at += n;
+            s
+        };
+        self.qpos_mut().copy_from_slice(take(nq));
+        self.qvel_mut().copy_from_slice(take(nv));
+        self.act_mut().copy_from_slice(take(na));
+        self.ctrl_mut().copy_from_slice(take(nu));
+        self.qacc_warmstart_mut().copy_from_slice(take(nv));
+        self.set_time(take(1)[0]);
+        Ok(need)
+    }
+
     /// Back to `qpos0`, zero velocity, zero controls, warnings cleared.
     pub fn reset(&mut self) -> Result<()> {
         let (m, d) = self.parts();

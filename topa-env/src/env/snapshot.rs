@@ -10,10 +10,7 @@ impl TopaEnv {
     /// command, perturbations, gait timers, counters, the random stream and the sim2sim state.
     pub(super) fn save_snapshot(&self, f: &mut Vec<f64>, u: &mut Vec<u64>) {
         let d = &self.data;
-        for arr in [d.qpos(), d.qvel(), d.act(), d.ctrl(), d.qacc_warmstart()] {
-            f.extend_from_slice(arr);
-        }
-        f.push(d.time());
+        d.save_state(f);
         let m = d.model();
         f.extend_from_slice(m.body_mass());
         f.extend(m.body_inertia().iter().flatten());
@@ -44,18 +41,9 @@ impl TopaEnv {
             fi += n;
             Ok(s)
         };
-        let (nq, nv, na, nu) = {
-            let m = self.data.model();
-            (m.nq(), m.nv(), m.na(), m.nu())
-        };
         let (nbody, ngeom) = (self.nominal.body_mass.len(), self.nominal.geom_friction.len());
-        self.data.qpos_mut().copy_from_slice(take(nq)?);
-        self.data.qvel_mut().copy_from_slice(take(nv)?);
-        self.data.act_mut().copy_from_slice(take(na)?);
-        self.data.ctrl_mut().copy_from_slice(take(nu)?);
-        self.data.qacc_warmstart_mut().copy_from_slice(take(nv)?);
-        let t = take(1)?[0];
-        self.data.set_time(t);
+        let state = take(self.data.state_len())?.to_vec();
+        self.data.load_state(&state)?;
         let mass = take(nbody)?.to_vec();
         let inertia = take(3 * nbody)?.to_vec();
         let friction = take(ngeom)?.to_vec();
@@ -71,18 +59,8 @@ impl TopaEnv {
                 g[0] = *v;
             }
             // set_const resets the Data to qpos0; restore the state afterwards.
-            let state: Vec<Vec<f64>> =
-                [self.data.qpos(), self.data.qvel(), self.data.act(), self.data.ctrl(), self.data.qacc_warmstart()]
-                    .iter()
-                    .map(|a| a.to_vec())
-                    .collect();
             self.data.set_const()?;
-            self.data.qpos_mut().copy_from_slice(&state[0]);
-            self.data.qvel_mut().copy_from_slice(&state[1]);
-            self.data.act_mut().copy_from_slice(&state[2]);
-            self.data.ctrl_mut().copy_from_slice(&state[3]);
-            self.data.qacc_warmstart_mut().copy_from_slice(&state[4]);
-            self.data.set_time(t);
+            self.data.load_state(&state)?;
         }
         let arr3 = |s: &[f64]| [s[0], s[1], s[2]];
         self.command = arr3(take(3)?);

@@ -131,34 +131,18 @@ impl Task for CartPole {
         self.push = p[0] as f64;
     }
     fn save_state(&self, f: &mut Vec<f64>, u: &mut Vec<u64>) {
-        let d = &self.data;
-        for arr in [d.qpos(), d.qvel(), d.ctrl(), d.qacc_warmstart()] {
-            f.extend_from_slice(arr);
-        }
-        f.push(d.time());
+        self.data.save_state(f);
         f.push(self.push);
         u.push(self.steps as u64);
         task::save_rng(&self.rng, u);
     }
     fn load_state(&mut self, f: &[f64], u: &[u64]) -> Result<(usize, usize)> {
-        let (nq, nv, nu) = (self.data.model().nq(), self.data.model().nv(), self.data.model().nu());
-        let need = 2 * nv + nq + nu + 2;
+        let need = self.data.state_len() + 1;
         if f.len() < need || u.len() < 1 + task::RNG_WORDS {
             return Err(EnvError::Shape("cart-pole snapshot too short".into()));
         }
-        let mut i = 0;
-        for (len, which) in [(nq, 0), (nv, 1), (nu, 2), (nv, 3)] {
-            let src = &f[i..i + len];
-            match which {
-                0 => self.data.qpos_mut().copy_from_slice(src),
-                1 => self.data.qvel_mut().copy_from_slice(src),
-                2 => self.data.ctrl_mut().copy_from_slice(src),
-                _ => self.data.qacc_warmstart_mut().copy_from_slice(src),
-            }
-            i += len;
-        }
-        self.data.set_time(f[i]);
-        self.push = f[i + 1];
+        let i = self.data.load_state(f)?;
+        self.push = f[i];
         self.steps = u[0] as usize;
         self.rng = task::load_rng(&u[1..]);
         Ok((need, 1 + task::RNG_WORDS))

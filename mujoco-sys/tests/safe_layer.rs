@@ -253,3 +253,24 @@ fn contacts_report_forces_that_hold_up_the_weight() {
     assert!((normal_sum - weight).abs() / weight < 0.02, "normal forces {normal_sum:.3} N vs weight {weight:.3} N");
     assert!(d.contact_force(d.contacts().len()).is_err());
 }
+
+#[test]
+fn a_state_snapshot_continues_the_simulation_bit_for_bit() {
+    let m = Arc::new(Model::from_xml_path(fixture("fourbar.xml")).unwrap());
+    let mut a = Data::new(m.clone()).unwrap();
+    for _ in 0..50 {
+        a.step().unwrap();
+    }
+    let mut snap = Vec::new();
+    a.save_state(&mut snap);
+    assert_eq!(snap.len(), a.state_len());
+    let mut b = Data::new(m).unwrap();
+    assert_eq!(b.load_state(&snap).unwrap(), snap.len());
+    for _ in 0..100 {
+        a.step().unwrap();
+        b.step().unwrap();
+    }
+    assert_eq!(a.qpos(), b.qpos());
+    assert_eq!(a.qvel(), b.qvel());
+    assert!(b.load_state(&snap[..snap.len() - 1]).unwrap_err().to_string().contains("needs"));
+}
