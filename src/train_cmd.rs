@@ -132,7 +132,7 @@ pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> 
         obs_dim: t.env.obs_dim(),
         action_dim: t.env.action_dim(),
         hidden: cfg.network.actor_hidden.clone(),
-        activation: cfg.network.activation.clone(),
+        activation: cfg.network.activation,
         action_scale: env.action_scale,
         action_clip: env.action_clip,
         policy_dt: env.policy_dt(),

@@ -42,7 +42,7 @@ fn constant_policy(dir: &Path, name: &str, model: ModelKind, action: [f32; N_MOT
         obs_dim: 42,
         action_dim: 10,
         hidden: vec![8],
-        activation: "elu".into(),
+        activation: Default::default(),
         action_scale: env.action_scale,
         action_clip: env.action_clip,
         policy_dt: env.policy_dt(),
@@ -260,6 +260,11 @@ fn a_policy_file_that_cannot_drive_topa_is_refused() {
     std::fs::write(&p, serde_json::to_string(&meta).unwrap()).unwrap();
     let err = PolicyRunner::load(&p, "x").err().unwrap().to_string();
     assert!(err.contains("a_robot_of_someone_else"), "{err}");
+    meta["robot"] = serde_json::json!("assets/robots/topa_closed.toml");
+    meta["activation"] = serde_json::json!("relu");
+    std::fs::write(&p, serde_json::to_string(&meta).unwrap()).unwrap();
+    let err = format!("{:#}", PolicyRunner::load(&p, "x").err().unwrap());
+    assert!(err.contains("relu") && err.contains("elu"), "{err}");
     std::fs::remove_dir_all(dir).ok();
 }
 

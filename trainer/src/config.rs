@@ -100,8 +100,8 @@ impl Default for PpoConfig {
 pub struct NetworkConfig {
     pub actor_hidden: Vec<usize>,
     pub critic_hidden: Vec<usize>,
-    /// Only "elu" (the paper's) is implemented.
-    pub activation: String,
+    /// The hidden layers' activation (the paper's ELU; the only one the fused kernels implement).
+    pub activation: HiddenActivation,
     /// Initial standard deviation of the Gaussian policy (rsl_rl: 1.0).
     pub init_noise_std: f64,
 }
@@ -111,10 +111,18 @@ impl Default for NetworkConfig {
         NetworkConfig {
             actor_hidden: vec![512, 256, 128],
             critic_hidden: vec![512, 256, 128],
-            activation: "elu".into(),
+            activation: HiddenActivation::Elu,
             init_noise_std: 1.0,
         }
     }
+}
+
+/// Activation of the hidden layers, as configs and policy files name it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum HiddenActivation {
+    #[default]
+    Elu,
 }
 
 /// The paper's robustness terms (their coefficients are not published; ours are documented here).
@@ -238,9 +246,6 @@ impl TrainConfig {
             if !(v.is_finite() && v > 0.0) {
                 return Err(format!("{k} must be positive, got {v}"));
             }
-        }
-        if self.network.activation != "elu" {
-            return Err(format!("network.activation '{}' is not supported: use \"elu\"", self.network.activation));
         }
         if self.network.actor_hidden.is_empty() || self.network.critic_hidden.is_empty() {
             return Err("network hidden layer lists must not be empty".into());

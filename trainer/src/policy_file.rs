@@ -46,7 +46,7 @@ pub struct PolicyMeta {
     pub obs_dim: usize,
     pub action_dim: usize,
     pub hidden: Vec<usize>,
-    pub activation: String,
+    pub activation: crate::config::HiddenActivation,
     /// Motor target = nominal + action_scale · action.
     pub action_scale: f64,
     pub action_clip: f64,
@@ -120,9 +120,6 @@ impl Policy {
                 meta.format,
                 meta.version
             );
-        }
-        if meta.activation != "elu" {
-            bail!("{}: activation '{}' is not supported (only elu)", json.display(), meta.activation);
         }
         let weights = json.parent().unwrap_or(Path::new(".")).join(&meta.weights);
         let l = Loaded::read(&weights)?;
