@@ -3,7 +3,7 @@
 # command that started it) with THREADS threads, run folders under RUNS. Used for lever sweeps on the 16-core
 # machine (with the bundle of bundle.sh) and for seed trainings here. Re-running it resumes every run that has a
 # checkpoint. Environment: RUNS (default runs/sweep), THREADS (default 2), TOPA (default: the bundle's launcher
-# if present, else target/release/topa).
+# if present, else target/release/topa), EXTRA (more arguments for new runs, e.g. "--model open").
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 runs="${RUNS:-runs/sweep}"
@@ -19,7 +19,8 @@ for spec in "$@"; do
   if [ -e "$dir/checkpoints/latest.json" ]; then
     args=(train --resume "$dir" --threads "$threads" --quiet)
   else
-    args=(train --config "$cfg" --seed "$seed" --out "$dir" --threads "$threads" --quiet)
+    # shellcheck disable=SC2206
+    args=(train --config "$cfg" --seed "$seed" --out "$dir" --threads "$threads" --quiet ${EXTRA:-})
   fi
   # shellcheck disable=SC2086
   setsid nohup $TOPA "${args[@]}" >>"$runs/$name.log" 2>&1 < /dev/null &
