@@ -1,27 +1,32 @@
 //! `topa export --onnx OUT.onnx --policy P.json`: the actor as an ONNX model for the robot's computer, with the
 //! observation normaliser in the graph, written through the ONNX protobuf types of `tract-onnx` (prost).
 //!
-//! The model (opset 17, IR 8):
-//! * input `obs`: float32 `[batch, 42]`, TopA's observation in motor space, laid out as in the
+//! The model (opset 17, IR 8), for a robot with n motors (TopA: n = 10, 42 observations):
+//! * input `obs`: float32 `[batch, 12 + 3n]`, the robot's observation in motor space, laid out as in the
 //!   `observation_layout` metadata entry (the env's `[v, ω, g, q − q_nominal, q̇, a_prev, c]`);
-//! * output `action`: float32 `[batch, 10]`, the policy's mean action in motor space (motor target offsets in units
+//! * output `action`: float32 `[batch, n]`, the policy's mean action in motor space (motor target offsets in units
 //!   of `action_scale` rad);
-//! * with `--motor-targets`, output `motor_targets`: float32 `[batch, 10]`, what the motors receive:
+//! * with `--motor-targets`, output `motor_targets`: float32 `[batch, n]`, what the motors receive:
 //!   `clamp(nominal + action_scale · clip(action, ±action_clip), motor range)`, in rad.
 //!
-//! Policies trained on the open (serial) model act in joint space; their graph maps the observation's motor
-//! blocks to joint space and the action back through the paper's M (as `topa eval` does), so every exported
-//! model takes and returns motor space. The metadata names the robot, the layout, the control period and the
-//! policy file's checksum, so a model can be matched to its policy (`--check`).
+//! Everything robot-specific comes from the robot's spec and MJCF (through the evaluation's `PolicyRunner`): the
+//! layout, the motor order, the stand pose and the ranges. A policy trained on a simplified model (TopA's serial
+//! chain, whose spec `approximates` the closed robot) acts in joint space; its graph maps the observation's motor
+//! blocks to joint space and the action back through the linkage's constant J (the paper's M, computed from the
+//! constraints), as `topa eval` does, so every exported model takes and returns motor space. Where that linkage is
+//! nonlinear no constant map exists and the export is refused (the runner says so). The metadata names the robot,
+//! the layout, the control period and the policy file's checksum, so a model can be matched to its policy
+//! (`--check`).
 
 use std::path::Path;
 
 use anyhow::{bail, ensure, Context, Result};
 use prost::Message;
-use topa_env::observation::{OBS_DIM, OBS_LAST_ACTION, OBS_Q, OBS_QD};
-use topa_env::robot::{self, ModelKind, N_MOTORS};
+use topa_env::observation::{Block, ObsLayout};
 use tract_onnx::pb;
 use trainer::policy_file::Policy;
+
+use crate::eval::PolicyRunner;
 
 pub const OPSET: i64 = 17;
 pub const INPUT: &str = "obs";
@@ -31,8 +36,8 @@ const FLOAT: i32 = 1;
 const DOUBLE: i32 = 11;
 
 /// The observation blocks (name, offset, size), as the metadata lists them.
-pub fn observation_layout() -> Vec<(&'static str, usize, usize)> {
-    topa_env::observation::TOPA.blocks().into_iter().map(|(b, offset, size)| (b.name(), offset, size)).collect()
+pub fn observation_layout(layout: ObsLayout) -> Vec<(&'static str, usize, usize)> {
+    layout.blocks().into_iter().map(|(b, offset, size)| (b.name(), offset, size)).collect()
 }
 
 fn tensor(name: &str, dims: &[usize], data: Vec<f32>) -> pb::TensorProto {
@@ -105,30 +110,36 @@ fn row_map(n: usize, f: impl Fn(&[f64]) -> Vec<f64>) -> Vec<f32> {
     t
 }
 
-/// Builds the ONNX model of `policy` (loaded from `source`).
-pub fn build(policy: &Policy, source: &str, motor_targets: bool) -> Result<pb::ModelProto> {
+/// Builds the ONNX model of the runner's policy (loaded from `source`) for the robot it runs on.
+pub fn build(runner: &PolicyRunner, source: &str, motor_targets: bool) -> Result<pb::ModelProto> {
+    let policy = &runner.policy;
     let m = &policy.meta;
+    let robot = runner.robot();
+    let layout = runner.layout();
+    let (n, obs_dim) = (layout.n_motors, layout.dim());
     ensure!(
-        m.obs_dim == OBS_DIM && m.action_dim == N_MOTORS,
-        "{source}: a {}→{} policy is not a TopA policy (42 → 10)",
+        m.obs_dim == obs_dim && m.action_dim == n,
+        "{source}: a {}→{} policy cannot drive {} ({obs_dim} → {n})",
         m.obs_dim,
-        m.action_dim
+        m.action_dim,
+        robot.name
     );
-    let kind =
-        ModelKind::of_policy(m.robot.as_deref(), m.model.as_deref()).map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
     let (mut nodes, mut inits) = (Vec::new(), Vec::new());
     let mut x = INPUT.to_string();
-    if kind == ModelKind::Open {
-        // Motor-space observation → the joint space the policy was trained in: M on q, q̇ and a_prev.
-        let t = row_map(OBS_DIM, |e| {
+    let map = runner.joint_map();
+    if let Some((j, _)) = map {
+        // Motor-space observation → the joint space the policy was trained in: J on q, q̇ and a_prev.
+        let t = row_map(obs_dim, |e| {
             let mut o = e.to_vec();
-            for b in [OBS_Q, OBS_QD, OBS_LAST_ACTION] {
-                let v: [f64; N_MOTORS] = o[b..b + N_MOTORS].try_into().unwrap();
-                o[b..b + N_MOTORS].copy_from_slice(&robot::motor_to_joint(&v));
+            for b in [Block::MotorPos, Block::MotorVel, Block::LastAction] {
+                let at = layout.offset(b);
+                for i in 0..n {
+                    o[at + i] = (0..n).map(|k| j[(i, k)] * e[at + k]).sum();
+                }
             }
             o
         });
-        inits.push(tensor("motor_to_joint_obs", &[OBS_DIM, OBS_DIM], t));
+        inits.push(tensor("motor_to_joint_obs", &[obs_dim, obs_dim], t));
         nodes.push(node("MatMul", &[INPUT, "motor_to_joint_obs"], "obs_joint", vec![]));
         x = "obs_joint".into();
     }
@@ -147,7 +158,7 @@ pub fn build(policy: &Policy, source: &str, motor_targets: bool) -> Result<pb::M
         inits.push(tensor(&w, &[l.out_dim(), l.in_dim()], l.weight.as_tensor().flatten_all()?.to_vec1()?));
         inits.push(tensor(&b, &[l.out_dim()], l.bias.as_tensor().to_vec1()?));
         let last = i + 1 == layers.len();
-        let z = if last && kind == ModelKind::Closed { OUTPUT.to_string() } else { format!("actor.{i}.linear") };
+        let z = if last && map.is_none() { OUTPUT.to_string() } else { format!("actor.{i}.linear") };
         nodes.push(node("Gemm", &[&x, &w, &b], &z, vec![int_attr("transB", 1)]));
         x = if last {
             z
@@ -157,41 +168,40 @@ pub fn build(policy: &Policy, source: &str, motor_targets: bool) -> Result<pb::M
             y
         };
     }
-    if kind == ModelKind::Open {
-        // Joint-space action → motor space: M⁻¹.
-        let t = row_map(N_MOTORS, |e| {
-            let v: [f64; N_MOTORS] = e.try_into().unwrap();
-            robot::joint_to_motor(&v).to_vec()
-        });
-        inits.push(tensor("joint_to_motor_action", &[N_MOTORS, N_MOTORS], t));
+    if let Some((_, inv)) = map {
+        // Joint-space action → motor space: J⁻¹.
+        let t = row_map(n, |e| (0..n).map(|i| (0..n).map(|k| inv[(i, k)] * e[k]).sum()).collect());
+        inits.push(tensor("joint_to_motor_action", &[n, n], t));
         nodes.push(node("MatMul", &[&x, "joint_to_motor_action"], OUTPUT, vec![]));
     }
-    let mut outputs = vec![value_info(OUTPUT, N_MOTORS)];
+    let mut outputs = vec![value_info(OUTPUT, n)];
+    let nominal = runner.nominal_motors();
     if motor_targets {
         let clip = m.action_clip as f32;
-        let nominal = robot::nominal_motors();
-        let range = robot::actuated_range(ModelKind::Closed);
         inits.push(tensor("action_min", &[], vec![-clip]));
         inits.push(tensor("action_max", &[], vec![clip]));
         inits.push(tensor("action_scale", &[], vec![m.action_scale as f32]));
-        inits.push(tensor("nominal_motor_positions", &[N_MOTORS], nominal.iter().map(|&v| v as f32).collect()));
-        inits.push(tensor("motor_min", &[N_MOTORS], range.iter().map(|r| r[0] as f32).collect()));
-        inits.push(tensor("motor_max", &[N_MOTORS], range.iter().map(|r| r[1] as f32).collect()));
+        inits.push(tensor("nominal_motor_positions", &[n], nominal.iter().map(|&v| v as f32).collect()));
+        inits.push(tensor("motor_min", &[n], robot.motors.iter().map(|mo| mo.motor_range[0] as f32).collect()));
+        inits.push(tensor("motor_max", &[n], robot.motors.iter().map(|mo| mo.motor_range[1] as f32).collect()));
         nodes.push(node("Clip", &[OUTPUT, "action_min", "action_max"], "action_clipped", vec![]));
         nodes.push(node("Mul", &["action_clipped", "action_scale"], "target_offset", vec![]));
         nodes.push(node("Add", &["target_offset", "nominal_motor_positions"], "target_raw", vec![]));
         nodes.push(node("Max", &["target_raw", "motor_min"], "target_low", vec![]));
         nodes.push(node("Min", &["target_low", "motor_max"], TARGETS, vec![]));
-        outputs.push(value_info(TARGETS, N_MOTORS));
+        outputs.push(value_info(TARGETS, n));
     }
-    let layout: Vec<serde_json::Value> =
-        observation_layout().iter().map(|(n, o, s)| serde_json::json!({"name": n, "offset": o, "size": s})).collect();
+    let layout: Vec<serde_json::Value> = observation_layout(layout)
+        .iter()
+        .map(|(n, o, s)| serde_json::json!({"name": n, "offset": o, "size": s}))
+        .collect();
     let meta = [
-        ("robot", "TopA (closed knee-ankle chain, 2 x 5-DoF legs)".to_string()),
-        ("trained_on_model", kind.name().to_string()),
+        ("robot", robot.name.clone()),
+        ("robot_spec", robot.path.file_name().map_or(String::new(), |f| f.to_string_lossy().into_owned())),
+        ("trained_on_model", runner.trained_on().to_string()),
         ("observation_layout", serde_json::Value::Array(layout).to_string()),
-        ("motor_order", serde_json::to_string(&robot::actuator_names(ModelKind::Closed))?),
-        ("nominal_motor_positions_rad", serde_json::to_string(&robot::nominal_motors())?),
+        ("motor_order", serde_json::to_string(&robot.motors.iter().map(|mo| &mo.actuator).collect::<Vec<_>>())?),
+        ("nominal_motor_positions_rad", serde_json::to_string(nominal)?),
         ("action_scale_rad", m.action_scale.to_string()),
         ("action_clip", m.action_clip.to_string()),
         ("control_period_s", m.policy_dt.to_string()),
@@ -204,12 +214,15 @@ pub fn build(policy: &Policy, source: &str, motor_targets: bool) -> Result<pb::M
         opset_import: vec![pb::OperatorSetIdProto { domain: String::new(), version: OPSET }],
         producer_name: "topa".into(),
         producer_version: env!("CARGO_PKG_VERSION").into(),
-        doc_string: "TopA locomotion policy: obs[batch, 42] → action[batch, 10] (see metadata)".into(),
+        doc_string: format!(
+            "{} locomotion policy: obs[batch, {obs_dim}] → action[batch, {n}] (see metadata)",
+            robot.name
+        ),
         graph: Some(pb::GraphProto {
             name: "topa_policy".into(),
             node: nodes,
             initializer: inits,
-            input: vec![value_info(INPUT, OBS_DIM)],
+            input: vec![value_info(INPUT, obs_dim)],
             output: outputs,
             ..Default::default()
         }),
@@ -220,8 +233,8 @@ pub fn build(policy: &Policy, source: &str, motor_targets: bool) -> Result<pb::M
 
 /// Writes the ONNX model of the policy at `policy_path` to `out` (atomically).
 pub fn export(policy_path: &Path, out: &Path, motor_targets: bool) -> Result<()> {
-    let policy = Policy::load(policy_path)?;
-    let model = build(&policy, &policy_path.display().to_string(), motor_targets)?;
+    let runner = PolicyRunner::load(policy_path, "export")?;
+    let model = build(&runner, &policy_path.display().to_string(), motor_targets)?;
     trainer::tensorfile::write_atomic(out, &model.encode_to_vec())
 }
 

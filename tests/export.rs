@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use topa::eval::{EvalSettings, PolicyRunner};
-use topa_env::robot::{self, ModelKind, N_MOTORS};
+use topa_env::robot::{ModelKind, N_MOTORS};
 use topa_env::{assets, Task, TopaEnv};
 use tract_onnx::prelude::*;
 
@@ -79,7 +79,8 @@ fn onnx_matches_our_forward_pass_for_every_bundled_policy() {
         assert!(worst <= 1e-5, "{name}: actions differ by {worst}");
         // Motor targets: nominal + scale · clip(action), clamped to the motor range — what the env sends.
         let meta = &runner.policy.meta;
-        let (nominal, range) = (robot::nominal_motors(), robot::actuated_range(ModelKind::Closed));
+        let nominal = runner.nominal_motors().to_vec();
+        let range: Vec<[f64; 2]> = runner.robot().motors.iter().map(|m| m.motor_range).collect();
         let mut worst_t = 0.0f32;
         for r in 0..rows {
             for i in 0..N_MOTORS {

@@ -21,6 +21,7 @@ use std::sync::Arc;
 
 use nalgebra::DMatrix;
 use topa_env::assets;
+use topa_env::indices::RobotIndices;
 use topa_env::linkage::JointMap;
 use topa_env::observation::{Block, ObsLayout};
 use topa_env::robot::ModelKind;
@@ -106,6 +107,8 @@ pub struct PolicyRunner {
     /// (J, J⁻¹) where the two differ.
     map: Option<(DMatrix<f64>, DMatrix<f64>)>,
     layout: ObsLayout,
+    /// The robot's motor positions in its stand keyframe (what actions are offsets from).
+    nominal_motors: Vec<f64>,
     obs_buf: Vec<f32>,
     act_buf: Vec<f32>,
 }
@@ -170,13 +173,16 @@ impl PolicyRunner {
         } else {
             None
         };
+        let robot = Arc::new(robot);
+        let nominal_motors = RobotIndices::resolve(&model, &robot)?.nominal_actuated;
         Ok(PolicyRunner {
             policy,
             name: name.to_string(),
             trained_on: Arc::new(trained_on),
-            robot: Arc::new(robot),
+            robot,
             map,
             layout,
+            nominal_motors,
             obs_buf: Vec::new(),
             act_buf: Vec::new(),
         })
@@ -190,6 +196,21 @@ impl PolicyRunner {
     /// The robot it is evaluated on.
     pub fn robot(&self) -> &RobotSpec {
         &self.robot
+    }
+
+    /// The robot's observation layout (what `act` takes).
+    pub fn layout(&self) -> ObsLayout {
+        self.layout
+    }
+
+    /// (J, J⁻¹) between the robot's motor space and the joint space the policy acts in, where the two differ.
+    pub fn joint_map(&self) -> Option<&(DMatrix<f64>, DMatrix<f64>)> {
+        self.map.as_ref()
+    }
+
+    /// The robot's motor positions in its stand pose, rad.
+    pub fn nominal_motors(&self) -> &[f64] {
+        &self.nominal_motors
     }
 
     /// The env config to evaluate this policy with: its training config made deterministic, on the closed
