@@ -13,6 +13,7 @@ pub mod play;
 pub mod plots;
 pub mod push_grid;
 pub mod recording;
+pub mod robot_info;
 pub mod train_cmd;
 pub mod video;
 

@@ -20,9 +20,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// Summarise an MJCF model: sizes, equality constraints, joints, actuators, mass, timestep.
+    /// Summarise an MJCF model (sizes, equality constraints, joints, actuators, mass, timestep) or a robot spec
+    /// (motors and the joints they move, stand pose, ranges, mirror, groups, loops, the motor→joint map).
     Info {
-        /// The MJCF file.
+        /// The MJCF file, or a robot spec (.toml, e.g. assets/robots/kestrel.toml).
         model: PathBuf,
         /// Print JSON instead of a table.
         #[arg(long)]
@@ -255,7 +256,13 @@ enum BenchCmd {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Cmd::Info { model, json } => info::run(&model, json),
+        Cmd::Info { model, json } => {
+            if model.extension().is_some_and(|e| e == "toml") {
+                topa::robot_info::run(&model, json)
+            } else {
+                info::run(&model, json)
+            }
+        }
         Cmd::Train { config, model, robot, seed, out, adversary, threads, iterations, resume, init_from, quiet } => {
             train_cmd::run(train_cmd::TrainArgs {
                 config,

@@ -61,3 +61,45 @@ fn version_is_printed() {
     let out = topa(&["--version"]);
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("topa "));
 }
+
+fn robot_info(name: &str) -> serde_json::Value {
+    let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/robots").join(name);
+    let out = topa(&["info", "--json", spec.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("valid JSON")
+}
+
+#[test]
+fn info_on_a_robot_spec_shows_what_the_linkage_computes() {
+    // TopA: the paper's M (ankle joint = ankle motor − knee) and a J that does not move anywhere near the stand.
+    let topa = robot_info("topa_closed.toml");
+    assert_eq!(topa["map"]["kind"], "linear");
+    assert_eq!(topa["motors"].as_array().unwrap().len(), 10);
+    let j = &topa["map"]["jacobian_at_stand"];
+    assert!((j[4][3].as_f64().unwrap() + 1.0).abs() < 1e-9 && (j[4][4].as_f64().unwrap() - 1.0).abs() < 1e-9);
+    assert!(topa["map"]["jacobian_spread"].as_f64().unwrap() < 1e-9, "{}", topa["map"]);
+    assert_eq!(topa["motors"][0]["mirror"], "r_hip_roll");
+    // Kestrel: the two-rod ankle couples pitch and roll, and J changes with the pose.
+    let kestrel = robot_info("kestrel.toml");
+    assert_eq!(kestrel["map"]["kind"], "nonlinear");
+    assert_eq!(kestrel["motors"].as_array().unwrap().len(), 12);
+    let j = &kestrel["map"]["jacobian_at_stand"];
+    assert!(j[5][4].as_f64().unwrap().abs() > 0.1 && j[5][5].as_f64().unwrap().abs() > 0.1, "roll from both rods");
+    assert!(kestrel["map"]["jacobian_spread"].as_f64().unwrap() > 1e-3);
+    // The serial model: identity, and it names the robot it stands in for.
+    let open = robot_info("topa_open.toml");
+    assert_eq!(open["map"]["kind"], "identity");
+    assert!(open["approximates"].as_str().unwrap().ends_with("topa_closed.toml"));
+}
+
+#[test]
+fn info_on_a_broken_robot_spec_names_the_line() {
+    let dir = std::env::temp_dir().join(format!("topa-info-spec-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/robots/kestrel.toml");
+    let text = std::fs::read_to_string(src).unwrap().replace("../mjcf/kestrel.xml", "kestrel_missing.xml");
+    let bad = dir.join("kestrel.toml");
+    std::fs::write(&bad, text).unwrap();
+    assert_one_line_error(&topa(&["info", bad.to_str().unwrap()]), "kestrel_missing.xml");
+    std::fs::remove_dir_all(dir).ok();
+}

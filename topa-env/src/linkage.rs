@@ -14,6 +14,8 @@ use crate::spec::RobotSpec;
 /// Loop closure is solved to this residual (m for a connect, rad for a joint equality).
 const CLOSURE_TOL: f64 = 1e-12;
 const MAX_ITERATIONS: usize = 60;
+/// The largest motor move between loop closures when solving far from the stand pose, rad.
+const CONTINUATION_STEP: f64 = 0.1;
 
 pub struct Linkage {
     data: Data,
@@ -129,15 +131,30 @@ impl Linkage {
         &self.nominal_motors
     }
 
-    /// Sets the motors, closes the loops; leaves the data at the closed configuration.
+    /// Sets the motors, closes the loops; leaves the data at the closed configuration. The motors move from the
+    /// stand pose in steps of at most `CONTINUATION_STEP`, closing the loops after each: a full Newton step from
+    /// the keyframe to a distant motor position can land on the linkage's other assembly branch (a parallelogram
+    /// folded over), which satisfies the constraints but is not the robot.
     fn close(&mut self, motors: &[f64]) -> Result<()> {
         if motors.len() != self.n_motors() {
             return Err(EnvError::Shape(format!("{} motor positions for {} motors", motors.len(), self.n_motors())));
         }
         self.data.reset_keyframe(self.key)?;
-        for (&a, &q) in self.motor_qpos.iter().zip(motors) {
-            self.data.qpos_mut()[a] = q;
+        let span = motors.iter().zip(&self.nominal_motors).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let steps = ((span / CONTINUATION_STEP).ceil() as usize).max(1);
+        for s in 1..=steps {
+            let t = s as f64 / steps as f64;
+            for k in 0..motors.len() {
+                let q0 = self.nominal_motors[k];
+                self.data.qpos_mut()[self.motor_qpos[k]] = q0 + t * (motors[k] - q0);
+            }
+            self.newton(motors)?;
         }
+        Ok(())
+    }
+
+    /// Gauss–Newton on the passive joints from the current configuration until the loops close.
+    fn newton(&mut self, motors: &[f64]) -> Result<()> {
         for _ in 0..MAX_ITERATIONS {
             self.data.fwd_position()?;
             let (r, jp, _) = self.rows();

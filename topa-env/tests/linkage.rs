@@ -118,3 +118,29 @@ fn topas_linear_map_is_detected_and_exactly_m() {
         assert_eq!(out, robot::motor_to_joint(&<[f64; N_MOTORS]>::try_from(q.clone()).unwrap()).to_vec());
     }
 }
+
+/// Far from the stand pose a Newton step can land on the linkage's other assembly branch (the parallelogram folded
+/// over), which closes the loop just as well; over the whole knee range and ankle-joint range the solved joints
+/// must stay the robot's, i.e. equal M·q.
+#[test]
+fn the_solver_stays_on_the_robots_branch_across_the_ranges() {
+    let (spec, mut l) = linkage(ModelKind::Closed);
+    let (knee, ankle) = (&spec.motors[robot::KNEE], &spec.motors[robot::ANKLE]);
+    let mut q = robot::nominal_motors().to_vec();
+    for a in 0..=10 {
+        for b in 0..=10 {
+            let lerp = |r: [f64; 2], t: f64| r[0] + (r[1] - r[0]) * (0.02 + 0.96 * t);
+            let k = lerp(knee.motor_range, a as f64 / 10.0);
+            let aj = lerp(ankle.joint_range, b as f64 / 10.0);
+            q[robot::KNEE] = k;
+            q[robot::ANKLE] = k + aj;
+            let got = l.joints(&q).unwrap();
+            assert!(
+                (got[robot::ANKLE] - aj).abs() < 1e-6,
+                "knee {k:.3}, ankle motor {:.3}: ankle joint {:.4} instead of {aj:.4}",
+                q[robot::ANKLE],
+                got[robot::ANKLE]
+            );
+        }
+    }
+}
