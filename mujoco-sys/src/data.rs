@@ -109,6 +109,9 @@ data_arrays! {
     geom_xmat / geom_xmat_mut: [f64; 9], |m| m.ngeom;
     site_xpos / site_xpos_mut: [f64; 3], |m| m.nsite;
     site_xmat / site_xmat_mut: [f64; 9], |m| m.nsite;
+    /// Each joint's anchor and axis in the world frame (after kinematics).
+    xanchor / xanchor_mut: [f64; 3], |m| m.njnt;
+    xaxis / xaxis_mut: [f64; 3], |m| m.njnt;
 }
 
 impl Data {

@@ -36,40 +36,106 @@ pub fn topa() -> Symmetry {
     for_layout(&crate::observation::TOPA, &leg_perm, &leg_sign)
 }
 
-/// Mirrors a full MuJoCo state of a TopA model in the XZ plane (for equivariance checks and data augmentation):
-/// the free base's y, its orientation and velocities, and every `l_*`/`r_*` hinge pair (roll and yaw joints flip
-/// sign). Derived from the joint names, so the closed model's passive linkage joints are included.
+/// The XZ-plane mirror of a whole MuJoCo state (for equivariance checks and data augmentation), derived from the
+/// model's geometry rather than joint names: at `qpos0` a joint's mirror partner is the joint of the same type
+/// whose world anchor is its anchor reflected (y → −y) and whose axis is its axis reflected — a hinge axis is a
+/// pseudo-vector (reflects to (−x, y, −z)), a slide axis a vector ((x, −y, z)); the coordinate keeps its sign
+/// when the partner's axis is that reflection and flips when it is the opposite. Joints on the plane are their
+/// own partners (a roll joint there flips). Every joint is covered, the linkages' passive ones included.
+pub struct StateMirror {
+    /// qpos[i] of the mirror = qpos_sign[i] · qpos[qpos_perm[i]]; likewise for qvel.
+    qpos_perm: Vec<usize>,
+    qpos_sign: Vec<f64>,
+    qvel_perm: Vec<usize>,
+    qvel_sign: Vec<f64>,
+}
+
+/// Anchors and axes closer than this are the same (metres; unit-vector components).
+const MIRROR_TOL: f64 = 1e-6;
+
+impl StateMirror {
+    pub fn new(model: &std::sync::Arc<mujoco_sys::Model>) -> crate::error::Result<Self> {
+        use mujoco_sys::{ffi, ObjType};
+        let mut d = mujoco_sys::Data::new(model.clone())?;
+        d.kinematics()?;
+        let (nq, nv) = (model.nq(), model.nv());
+        let mut m = StateMirror {
+            qpos_perm: (0..nq).collect(),
+            qpos_sign: vec![1.0; nq],
+            qvel_perm: (0..nv).collect(),
+            qvel_sign: vec![1.0; nv],
+        };
+        let types = model.jnt_type();
+        let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < MIRROR_TOL);
+        for j in 0..model.njnt() {
+            let (qa, da) = (model.jnt_qposadr_of(j), model.jnt_dofadr_of(j));
+            let t = types[j] as u32;
+            if t == ffi::mjJNT_FREE {
+                // Position: y flips. Quaternion (w, x, y, z) of S R S with S = diag(1, −1, 1): x and z flip.
+                // World linear velocity: y flips; body angular velocity (a pseudo-vector): x and z flip.
+                for k in [1, 4, 6] {
+                    m.qpos_sign[qa + k] = -1.0;
+                }
+                for k in [1, 3, 5] {
+                    m.qvel_sign[da + k] = -1.0;
+                }
+                continue;
+            }
+            let name = || model.name_of(ObjType::Joint, j).unwrap_or("?").to_string();
+            if t == ffi::mjJNT_BALL {
+                return Err(crate::EnvError::Config(format!(
+                    "joint '{}' is a ball joint: the state mirror handles hinge, slide and free joints",
+                    name()
+                )));
+            }
+            let [x, y, z] = d.xanchor()[j];
+            let anchor = [x, -y, z];
+            let [ax, ay, az] = d.xaxis()[j];
+            let axis = if t == ffi::mjJNT_HINGE { [-ax, ay, -az] } else { [ax, -ay, az] };
+            let partner = (0..model.njnt()).find_map(|k| {
+                if types[k] != types[j] || !close(d.xanchor()[k], anchor) {
+                    return None;
+                }
+                let b = d.xaxis()[k];
+                if close(b, axis) {
+                    Some((k, 1.0))
+                } else if close(b, [-axis[0], -axis[1], -axis[2]]) {
+                    Some((k, -1.0))
+                } else {
+                    None
+                }
+            });
+            let Some((k, sign)) = partner else {
+                return Err(crate::EnvError::Config(format!(
+                    "joint '{}' has no mirror image (no joint at ({x:.4}, {:.4}, {z:.4}) with the reflected axis at \
+                     qpos0): the model is not left-right symmetric",
+                    name(),
+                    -y
+                )));
+            };
+            m.qpos_perm[qa] = model.jnt_qposadr_of(k);
+            m.qpos_sign[qa] = sign;
+            m.qvel_perm[da] = model.jnt_dofadr_of(k);
+            m.qvel_sign[da] = sign;
+        }
+        Ok(m)
+    }
+
+    /// The mirrored (qpos, qvel).
+    pub fn apply(&self, qpos: &[f64], qvel: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let p = self.qpos_perm.iter().zip(&self.qpos_sign).map(|(&i, s)| s * qpos[i]).collect();
+        let v = self.qvel_perm.iter().zip(&self.qvel_sign).map(|(&i, s)| s * qvel[i]).collect();
+        (p, v)
+    }
+}
+
+/// Mirrors a full MuJoCo state in the XZ plane (see `StateMirror`; builds the map each call).
 pub fn mirror_mj_state(
-    model: &mujoco_sys::Model,
+    model: &std::sync::Arc<mujoco_sys::Model>,
     qpos: &[f64],
     qvel: &[f64],
 ) -> crate::error::Result<(Vec<f64>, Vec<f64>)> {
-    use mujoco_sys::{ffi, ObjType};
-    let (mut p, mut v) = (qpos.to_vec(), qvel.to_vec());
-    for j in 0..model.njnt() {
-        let (qa, da) = (model.jnt_qposadr_of(j), model.jnt_dofadr_of(j));
-        if model.jnt_type()[j] == ffi::mjJNT_FREE as i32 {
-            p[qa + 1] = -qpos[qa + 1];
-            // Quaternion (w, x, y, z) of S R S with S = diag(1, −1, 1): x and z flip.
-            p[qa + 4] = -qpos[qa + 4];
-            p[qa + 6] = -qpos[qa + 6];
-            v[da + 1] = -qvel[da + 1]; // world linear velocity: y flips
-            v[da + 3] = -qvel[da + 3]; // body angular velocity (pseudo-vector): x and z flip
-            v[da + 5] = -qvel[da + 5];
-            continue;
-        }
-        let name = model.name_of(ObjType::Joint, j).unwrap_or("");
-        let partner = match name.split_once('_') {
-            Some(("l", rest)) => format!("r_{rest}"),
-            Some(("r", rest)) => format!("l_{rest}"),
-            _ => continue,
-        };
-        let k = model.id(ObjType::Joint, &partner)?;
-        let sign = if name.contains("roll") || name.contains("yaw") { -1.0 } else { 1.0 };
-        p[qa] = sign * qpos[model.jnt_qposadr_of(k)];
-        v[da] = sign * qvel[model.jnt_dofadr_of(k)];
-    }
-    Ok((p, v))
+    Ok(StateMirror::new(model)?.apply(qpos, qvel))
 }
 
 #[cfg(test)]

@@ -84,7 +84,7 @@ fn standing_still_earns_the_tracking_and_posture_terms() {
 
 /// Mirrors the whole simulation state of `src` into `dst` (same model).
 fn mirror_into(src: &TopaEnv, dst: &mut TopaEnv, obs: &mut [f32]) {
-    let m = src.data().model();
+    let m = src.data().model_arc();
     let (p, v) = mirror_mj_state(m, src.data().qpos(), src.data().qvel()).unwrap();
     dst.data_mut().qpos_mut().copy_from_slice(&p);
     dst.data_mut().qvel_mut().copy_from_slice(&v);
