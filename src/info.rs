@@ -200,12 +200,16 @@ pub fn print_text(s: &ModelSummary) {
     }
 }
 
-pub fn run(path: &Path, json: bool) -> Result<()> {
-    let s = summarize(path)?;
+/// Prints a summary as pretty JSON (for scripts) or with its text printer (for people).
+pub fn show<T: Serialize>(summary: &T, json: bool, text: impl Fn(&T)) -> Result<()> {
     if json {
-        println!("{}", serde_json::to_string_pretty(&s)?);
+        println!("{}", serde_json::to_string_pretty(summary)?);
     } else {
-        print_text(&s);
+        text(summary);
     }
     Ok(())
+}
+
+pub fn run(path: &Path, json: bool) -> Result<()> {
+    show(&summarize(path)?, json, print_text)
 }

@@ -168,11 +168,5 @@ pub fn print_text(s: &RobotSummary) {
 }
 
 pub fn run(path: &Path, json: bool) -> Result<()> {
-    let s = summarize(path)?;
-    if json {
-        println!("{}", serde_json::to_string_pretty(&s)?);
-    } else {
-        print_text(&s);
-    }
-    Ok(())
+    crate::info::show(&summarize(path)?, json, print_text)
 }

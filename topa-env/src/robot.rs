@@ -1,5 +1,8 @@
-//! The TopA robot spec: motor and joint names per leg, nominal pose, limits, the knee–ankle map
+//! TopA as the paper states it: motor and joint names per leg, nominal pose, limits, the knee–ankle map
 //! `joint = M · motor` with M = [[1, 0], [-1, 1]] (paper, Hardware platform), and the left↔right mirror.
+//! Nothing in the env reads these (it reads the robot's spec, assets/robots/*.toml, and computes the maps from
+//! the MJCF): they are the independent reference the tests check the spec and the computed maps against, plus
+//! the `--model closed|open` shorthand for TopA's two specs.
 //!
 //! Vectors of 10 follow the actuator order of the MJCF: left leg (hip roll, hip yaw, hip pitch, knee, ankle),
 //! then right leg. "Motor space" is what the motors see (closed model); "joint space" is the kinematic joints
