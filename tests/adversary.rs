@@ -115,3 +115,57 @@ fn resume_in_the_middle_of_phase_two_continues_exactly() {
     assert_eq!(resumed.env.obs(), straight.env.obs());
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// The same on TopA through the CLI, with the training preset (domain randomisation, pushes, noise) and the
+/// adversary attacking half the envs in phase 3: a run resumed from a checkpoint in phase 2 or in phase 3 — with
+/// another thread count — ends with the straight run's policy, byte for byte.
+#[test]
+fn a_topa_adversary_run_resumed_anywhere_ends_with_the_straight_runs_policy() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = std::env::temp_dir().join(format!("topa-ca-resume-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("cfg.toml");
+    let base = root.join("configs/cpu.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "base = {:?}\n[run]\nnum_envs = 8\nsteps_per_env = 8\ncheckpoint_every = 1\nkeep_checkpoints = 100\n\
+             [adversary]\nphase1_policy_iters = 2\nphase2_adversary_iters = 3\nphase3_policy_iters = 3\ncycles = 1\n",
+            base.display().to_string()
+        ),
+    )
+    .unwrap();
+    let topa = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_topa")).args(args).output().unwrap();
+        assert!(out.status.success(), "topa {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    };
+    let straight = dir.join("straight");
+    let (cfg_s, straight_s) = (cfg.to_str().unwrap(), straight.to_str().unwrap());
+    topa(&["train", "--config", cfg_s, "--adversary", "--threads", "1", "--quiet", "--out", straight_s]);
+    let want = std::fs::read(straight.join("policy.safetensors")).unwrap();
+    // Completed iterations 1–2: phase 1; 3–5: phase 2; 6–8: phase 3.
+    for (at, threads) in [(4, "2"), (6, "1")] {
+        let run = dir.join(format!("resumed-{at}"));
+        let ck = run.join("checkpoints");
+        std::fs::create_dir_all(&ck).unwrap();
+        for f in std::fs::read_dir(straight.join("checkpoints")).unwrap() {
+            let p = f.unwrap().path();
+            let name = p.file_name().unwrap().to_str().unwrap().to_string();
+            let keep = name
+                .strip_prefix("ckpt_")
+                .and_then(|s| s.split('.').next())
+                .is_some_and(|n| n.parse::<usize>().unwrap() <= at);
+            if keep {
+                std::fs::copy(&p, ck.join(&name)).unwrap();
+            }
+        }
+        std::fs::copy(straight.join("config.toml"), run.join("config.toml")).unwrap();
+        std::fs::write(ck.join("latest.json"), format!("{{\"sidecar\": \"ckpt_{at:07}.json\", \"iteration\": {at}}}"))
+            .unwrap();
+        topa(&["train", "--resume", run.to_str().unwrap(), "--threads", threads, "--quiet"]);
+        let got = std::fs::read(run.join("policy.safetensors")).unwrap();
+        assert!(got == want, "resumed after iteration {at} with {threads} thread(s): the policy differs");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}

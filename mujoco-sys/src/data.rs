@@ -269,9 +269,18 @@ impl Data {
         Some(unsafe { view(d.efc_J, d.nefc as usize * m.nv as usize) })
     }
 
-    /// Values in a state snapshot: qpos, qvel, act, ctrl, the solver's warm start (qacc_warmstart) and time —
-    /// what fixes the simulation's future for a given model.
+    /// Values in a state snapshot: qpos, qvel, act, ctrl, the solver's warm start (qacc_warmstart), time, and the
+    /// applied forces (qfrc_applied, xfrc_applied) — what fixes the simulation's future for a given model (MuJoCo
+    /// 3's "integration state" less mocap and user data, which we do not use). The applied forces belong here: a
+    /// forward pass after restoring (for derived quantities) reads them and rewrites the warm start from them.
     pub fn state_len(&self) -> usize {
+        let m = self.model();
+        m.nq() + 3 * m.nv() + m.na() + m.nu() + 1 + 6 * m.nbody()
+    }
+
+    /// The snapshot length of builds before the applied forces were part of it (`load_state` pads such a
+    /// snapshot with zero forces).
+    pub fn state_len_without_forces(&self) -> usize {
         let m = self.model();
         m.nq() + 2 * m.nv() + m.na() + m.nu() + 1
     }
@@ -282,6 +291,8 @@ impl Data {
             out.extend_from_slice(arr);
         }
         out.push(self.time());
+        out.extend_from_slice(self.qfrc_applied());
+        out.extend(self.xfrc_applied().iter().flatten());
     }
 
     /// Restores a snapshot from the front of `src`; returns how many values it read.
@@ -308,6 +319,11 @@ impl Data {
         self.ctrl_mut().copy_from_slice(take(nu));
         self.qacc_warmstart_mut().copy_from_slice(take(nv));
         self.set_time(take(1)[0]);
+        self.qfrc_applied_mut().copy_from_slice(take(nv));
+        let x = take(6 * self.model().nbody());
+        for (w, c) in self.xfrc_applied_mut().iter_mut().zip(x.chunks_exact(6)) {
+            w.copy_from_slice(c);
+        }
         Ok(need)
     }
 

@@ -283,8 +283,12 @@ impl<T: Task> VecEnv for BatchEnv<T> {
         for (i, t) in self.tasks.iter_mut().enumerate() {
             let f = &s.f64s[i * s.f64_width..(i + 1) * s.f64_width];
             let u = &s.u64s[i * s.u64_width..(i + 1) * s.u64_width];
-            let (fi, ui) = t.load_state(f, u)?;
-            if fi + 1 + nterms != f.len() || ui + 1 != u.len() {
+            // Each row: the task's own values, then its episode's return and reward terms (length, in u64s).
+            let (Some(task_f), Some(task_u)) = (f.len().checked_sub(1 + nterms), u.len().checked_sub(1)) else {
+                return Err(EnvError::Shape("env snapshot rows have the wrong width for this task".into()).into());
+            };
+            let (fi, ui) = t.load_state(&f[..task_f], &u[..task_u])?;
+            if fi != task_f || ui != task_u {
                 return Err(EnvError::Shape("env snapshot rows have the wrong width for this task".into()).into());
             }
             let e = &mut self.episodes[i];

@@ -33,6 +33,13 @@ impl TopaEnv {
         }
     }
 
+    /// How many f64 values `save_snapshot` writes.
+    fn snapshot_len(&self) -> usize {
+        let (mut f, mut u) = (Vec::new(), Vec::new());
+        self.save_snapshot(&mut f, &mut u);
+        f.len()
+    }
+
     /// Restores what `save_snapshot` wrote; returns how many f64 and u64 values it read.
     pub(super) fn load_snapshot(&mut self, f: &[f64], u: &[u64]) -> Result<(usize, usize)> {
         let mut fi = 0;
@@ -42,7 +49,17 @@ impl TopaEnv {
             Ok(s)
         };
         let (nbody, ngeom) = (self.nominal.body_mass.len(), self.nominal.geom_friction.len());
-        let state = take(self.data.state_len())?.to_vec();
+        // Rows written before the applied forces were part of the physics state are shorter by exactly them:
+        // those load with zero applied forces (what the next step's perturbation overwrites anyway).
+        let (with, without) = (self.data.state_len(), self.data.state_len_without_forces());
+        let legacy = f.len() + (with - without) == self.snapshot_len();
+        let state = if legacy {
+            let mut s = take(without)?.to_vec();
+            s.resize(with, 0.0);
+            s
+        } else {
+            take(with)?.to_vec()
+        };
         self.data.load_state(&state)?;
         let mass = take(nbody)?.to_vec();
         let inertia = take(3 * nbody)?.to_vec();
@@ -92,9 +109,12 @@ impl TopaEnv {
             fi += a;
             need += b;
         }
-        // Derived quantities (contacts, velocities) for the observation and the next reward.
+        // Derived quantities (contacts, velocities) for the observation and the next reward. The forward pass
+        // writes into the state itself (it renormalises the base quaternion in place, a last-bit change, and
+        // rewrites the warm start), which the uninterrupted run never saw: the saved state goes back afterwards.
         self.data.forward()?;
         state::read_into(&self.data, &self.idx, &mut self.robot_state);
+        self.data.load_state(&state)?;
         Ok((fi, need))
     }
 }
