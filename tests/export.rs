@@ -46,17 +46,21 @@ fn observations() -> Vec<f32> {
 }
 
 fn run_onnx(path: &Path, obs: &[f32]) -> Vec<Vec<f32>> {
-    let rows = obs.len() / 42;
+    run_onnx_dim(path, obs, 42)
+}
+
+fn run_onnx_dim(path: &Path, obs: &[f32], dim: usize) -> Vec<Vec<f32>> {
+    let rows = obs.len() / dim;
     let model = tract_onnx::onnx()
         .model_for_path(path)
         .unwrap()
-        .with_input_fact(0, f32::fact([rows, 42]).into())
+        .with_input_fact(0, f32::fact([rows, dim]).into())
         .unwrap()
         .into_optimized()
         .unwrap()
         .into_runnable()
         .unwrap();
-    let input: Tensor = tract_ndarray::Array2::from_shape_vec((rows, 42), obs.to_vec()).unwrap().into();
+    let input: Tensor = tract_ndarray::Array2::from_shape_vec((rows, dim), obs.to_vec()).unwrap().into();
     let out = model.run(tvec!(input.into())).unwrap();
     out.iter().map(|t| t.to_plain_array_view::<f32>().unwrap().iter().copied().collect()).collect()
 }
@@ -127,5 +131,37 @@ fn corrupt_or_mismatched_files_are_one_clear_error() {
     let err = topa::export::export(&copy.join("C.json"), &dir.join("x.onnx"), false).unwrap_err().to_string();
     assert!(err.contains("corrupt"), "{err}");
     assert!(!dir.join("x.onnx").exists());
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// A second robot exports with its own layout (Kestrel: 12 motors, 48 observations), motor order, stand pose and
+/// ranges — from its spec and MJCF, no code of its own — and the model equals our forward pass.
+#[test]
+fn a_second_robot_exports_with_its_own_layout() {
+    let dir = tempdir("kestrel");
+    let file = dir.join("kestrel.onnx");
+    let src = policy("kestrel/seed1");
+    topa::export::export(&src, &file, true).unwrap();
+    let model = topa::export::read(&file).unwrap();
+    let meta = |k: &str| model.metadata_props.iter().find(|p| p.key == k).map(|p| p.value.clone()).unwrap();
+    assert_eq!(meta("robot"), "kestrel");
+    let order: Vec<String> = serde_json::from_str(&meta("motor_order")).unwrap();
+    assert_eq!(order.len(), 12);
+    assert_eq!((order[4].as_str(), order[5].as_str()), ("l_ankle_out", "l_ankle_in"));
+    let mut runner = PolicyRunner::load(&src, "kestrel").unwrap();
+    let dim = runner.layout().dim();
+    assert_eq!(dim, 48);
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let obs: Vec<f32> = (0..200 * dim).map(|_| rng.random_range(-2.0f32..2.0)).collect();
+    let out = run_onnx_dim(&file, &obs, dim);
+    let mut ours = Vec::new();
+    runner.act(&obs, &mut ours);
+    let worst = out[0].iter().zip(&ours).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    assert!(worst <= 1e-5, "actions differ by {worst}");
+    // Motor targets at a zero action are the robot's stand pose (its cranks, not its joints).
+    let nominal = runner.nominal_motors().to_vec();
+    let meta_nominal: Vec<f64> = serde_json::from_str(&meta("nominal_motor_positions_rad")).unwrap();
+    assert_eq!(meta_nominal, nominal);
+    assert!((nominal[5] - (-0.35)).abs() < 1e-3, "inner crank at the stand: {}", nominal[5]);
     std::fs::remove_dir_all(dir).ok();
 }
