@@ -222,13 +222,14 @@ pub struct RewardConfig {
     pub motor_torque_limits: f64,
     pub feet_slip: f64,
     pub feet_air_time: f64,
-    /// Ours, not in the paper (0 there): exp(−Σ_f max(0, h* − h_f)²·tanh(2‖v_f‖)/σ), feet moving over the ground
-    /// below the clearance target h* cost, feet at rest or above it do not.
+    /// Ours, not in the paper (0 there): a foot-clearance term in the form `clearance_form` names.
     pub feet_clearance: f64,
     /// h*, the sole height a moving foot should reach, m.
     pub clearance_target: f64,
     /// σ of the feet-clearance kernel, m².
     pub sigma_clearance: f64,
+    /// How the feet-clearance term turns foot heights into reward (see `ClearanceForm`).
+    pub clearance_form: ClearanceForm,
     /// σ_v of the linear tracking kernel, (m/s)².
     pub sigma_v: f64,
     /// σ_ω of the yaw-rate tracking kernel, (rad/s)².
@@ -278,6 +279,20 @@ pub enum AirTimeForm {
     PositiveBiped,
 }
 
+/// The feet-clearance equation (ours; the paper has no such term).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ClearanceForm {
+    /// exp(−Σ_f max(0, h* − h_f)²·tanh(2‖v_f‖)/σ): feet moving over the ground below h* cost, feet at rest or
+    /// above it do not (IsaacLab's foot-clearance shape). Measured: standing still is its optimum
+    /// (docs/results/levers.md).
+    #[default]
+    Kernel,
+    /// Σ_f 𝟙(foot f in the air)·min(h_f, h*)/h* while a motion is commanded: pays for lifting a swing foot up to
+    /// h*, nothing for standing (with a positive weight, a reward for stepping high instead of a charge for not).
+    SwingHeight,
+}
+
 impl Default for RewardConfig {
     fn default() -> Self {
         RewardConfig {
@@ -314,6 +329,7 @@ impl Default for RewardConfig {
             scale_by_dt: true,
             only_positive_rewards: false,
             air_time_form: AirTimeForm::Abs,
+            clearance_form: ClearanceForm::Kernel,
         }
     }
 }

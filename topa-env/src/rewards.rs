@@ -1,7 +1,7 @@
 //! The paper's 14 reward terms (Table "Rewards") and one of ours (feet clearance, weight 0 in the paper's
 //! table), computed from a plain snapshot of the state so that each term can be checked on hand-made states.
 
-use crate::config::{AirTimeForm, RewardConfig};
+use crate::config::{AirTimeForm, ClearanceForm, RewardConfig};
 
 pub const N_TERMS: usize = 15;
 
@@ -196,12 +196,23 @@ fn air_time(c: &RewardConfig, x: &RewardInputs) -> f64 {
     }
 }
 
-/// A foot that moves over the ground below the target height is a shuffle; weighting by tanh(2‖v‖) leaves a foot
-/// at rest (stance) free, as IsaacLab's foot-clearance reward does.
+/// Kernel form: a foot that moves over the ground below the target height is a shuffle; weighting by tanh(2‖v‖)
+/// leaves a foot at rest (stance) free, as IsaacLab's foot-clearance reward does. Swing-height form: each foot in
+/// the air pays its height up to the target, while a motion is commanded.
 fn clearance(c: &RewardConfig, x: &RewardInputs) -> f64 {
-    let low: f64 =
-        (0..2).map(|f| sq((c.clearance_target - x.foot_height[f]).max(0.0)) * (2.0 * x.foot_speed[f]).tanh()).sum();
-    kernel(low, c.sigma_clearance)
+    match c.clearance_form {
+        ClearanceForm::Kernel => {
+            let low: f64 = (0..2)
+                .map(|f| sq((c.clearance_target - x.foot_height[f]).max(0.0)) * (2.0 * x.foot_speed[f]).tanh())
+                .sum();
+            kernel(low, c.sigma_clearance)
+        }
+        ClearanceForm::SwingHeight if moving(x) => (0..2)
+            .filter(|&f| !x.foot_contact[f])
+            .map(|f| x.foot_height[f].clamp(0.0, c.clearance_target) / c.clearance_target)
+            .sum(),
+        ClearanceForm::SwingHeight => 0.0,
+    }
 }
 
 /// The unweighted value of each term (the paper's "Equation" column).
@@ -342,6 +353,12 @@ mod tests {
         e(raw_terms(&form(AirTimeForm::PositiveBiped), &biped)[13], 0.5);
         biped.foot_contact = [true, true];
         e(raw_terms(&form(AirTimeForm::PositiveBiped), &biped)[13], 0.0);
+        // Swing-height clearance: the right foot (in the air, 1 cm of a 5 cm target) pays 0.2; higher than the
+        // target pays 1; the stance foot nothing; a stand-still command nothing.
+        let swing = RewardConfig { clearance_form: ClearanceForm::SwingHeight, ..c.clone() };
+        e(raw_terms(&swing, &x)[14], 0.2);
+        e(raw_terms(&swing, &high)[14], 1.0);
+        e(raw_terms(&swing, &standing)[14], 0.0);
         x.air_time[1] = 0.2;
         let mut out = [0.0; N_TERMS];
         let total = weighted_terms(&c, &x, 0.02, &mut out);
