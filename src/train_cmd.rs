@@ -321,7 +321,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
         bar.set_position(log.iteration as u64);
         bar.set_message(progress_line(&log, total));
         if args.quiet && lead && log.iteration % 10 == 0 {
-            eprintln!("{}", progress_line(&log, total));
+            say(&progress_line(&log, total));
         }
         if log.iteration % every == 0 || trainer.is_done() {
             save(&trainer)?;
@@ -334,7 +334,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
     }
     if comm.size() > 1 {
         let crc = check_ranks_agree(&trainer)?;
-        eprintln!("rank {}/{}: policy weights crc32 {crc:08x}", comm.rank(), comm.size());
+        say(&format!("rank {}/{}: policy weights crc32 {crc:08x}", comm.rank(), comm.size()));
     }
     let Some(metrics) = metrics else { return Ok(()) };
     let png = out.join("learning_curve.png");
@@ -355,4 +355,11 @@ pub fn run(args: TrainArgs) -> Result<()> {
         png.display()
     );
     Ok(())
+}
+
+/// One line to stderr in a single write: `eprintln!` writes a formatted line piece by piece, and the lines of
+/// MPI ranks sharing one stderr then interleave mid-line.
+fn say(line: &str) {
+    use std::io::Write;
+    let _ = std::io::stderr().lock().write_all(format!("{line}\n").as_bytes());
 }
