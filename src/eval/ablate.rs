@@ -104,8 +104,10 @@ pub fn markdown(a: &Ablation) -> Result<String> {
     let paper = report::paper()?;
     let g = groups::group(&a.results);
     Ok(format!(
-        "## Headline numbers\n\n{}\n## Commanded velocity tracking\n{}\n## Gait\n\n{}\n## Each policy\n\n{}",
+        "## Headline numbers\n\n{}\n## The paper's claims and the bars, checked\n\n{}\n## Commanded velocity \
+         tracking\n{}\n## Gait\n\n{}\n## Each policy\n\n{}",
         groups::headline_markdown(&g, &paper),
+        super::claims::markdown(&super::claims::check(&g)),
         groups::tracking_markdown(&g, &paper),
         groups::gait_markdown(&g),
         groups::per_policy_markdown(&a.results),

@@ -4,6 +4,7 @@
 //! transfer, not a replay. A policy trained on the open model is run through the paper's map M.
 
 pub mod ablate;
+pub mod claims;
 pub mod gait;
 pub mod groups;
 pub mod noise;
