@@ -72,9 +72,10 @@ pub fn check(groups: &[Group]) -> Vec<Claim> {
     if let (Some(gc), Some(gca)) = (find(groups, "C"), find(groups, "CA")) {
         let levels = gc.members.iter().chain(&gca.members).map(|r| r.noise.len()).min().unwrap_or(0);
         let pairs: Vec<(f64, f64)> = (0..levels).map(|i| (gc.noise(i).mean, gca.noise(i).mean)).collect();
+        // Where both succeed every time there is nothing to be above: a tie at 100 % does not count against.
         out.push(Claim {
-            statement: "C+A above C at every command-noise level".into(),
-            holds: (levels > 0).then(|| pairs.iter().all(|(c, ca)| ca > c)),
+            statement: "C+A above C at every command-noise level (ties at 100 % aside)".into(),
+            holds: (levels > 0).then(|| pairs.iter().all(|&(c, ca)| ca > c || (c >= 100.0 && ca >= 100.0))),
             evidence: pairs
                 .iter()
                 .enumerate()
@@ -191,18 +192,22 @@ mod tests {
     fn the_ordering_and_the_margin_are_judged_on_means_and_sds() {
         // C+A ahead of C by 0.6 s, but the seeds spread by 0.5 s each: ordered, not separated.
         let r = vec![
-            policy("O", 5.0, [50.0, 10.0], 0.1, 0.25),
-            policy("C", 8.0, [90.0, 40.0], 0.1, 0.25),
-            policy("C", 9.0, [90.0, 40.0], 0.1, 0.25),
-            policy("CA", 8.6, [95.0, 30.0], 0.1, 0.25),
-            policy("CA", 9.6, [95.0, 60.0], 0.2, 0.15),
+            policy("O", 5.0, [100.0, 10.0], 0.1, 0.25),
+            policy("C", 8.0, [100.0, 40.0], 0.1, 0.25),
+            policy("C", 9.0, [100.0, 40.0], 0.1, 0.25),
+            policy("CA", 8.6, [100.0, 30.0], 0.1, 0.25),
+            policy("CA", 9.6, [100.0, 60.0], 0.2, 0.15),
         ];
         let c = check(&group(&r));
         assert_eq!(verdict(&c, "mean t_fall (standing pushes): O < C < C+A"), Some(true));
         assert_eq!(verdict(&c, "C+A − C exceeds"), Some(false), "0.6 s against 0.71 + 0.71");
         assert_eq!(verdict(&c, "C+A mean t_fall ≥"), Some(true)); // 9.1
-        assert_eq!(verdict(&c, "C+A above C at every command-noise level"), Some(true)); // 95 > 90, 45 > 40
-                                                                                         // The second C+A policy misses two bars: its worst component (0.2) and its air time (0.15 s).
+                                                                  // Level 1: both at 100 % (a tie that does not count against); level 2: 45 > 40.
+        assert_eq!(verdict(&c, "C+A above C at every command-noise level"), Some(true));
+        let mut worse = r.clone();
+        worse[4].noise[1].success_pct = 20.0; // C+A level 2: 25 % against 40 %
+        assert_eq!(verdict(&check(&group(&worse)), "C+A above C at every command-noise level"), Some(false));
+        // The second C+A policy misses two bars: its worst component (0.2) and its air time (0.15 s).
         let bars: Vec<&Claim> = c.iter().filter(|x| x.statement.starts_with("C+A CA.json")).collect();
         assert_eq!(bars.iter().filter(|x| x.holds == Some(false)).count(), 2, "{bars:?}");
         // One seed per group: no sd, no verdict on the margin.
