@@ -43,15 +43,28 @@ pub fn magnitudes(p: &[f32], channels: &[PerturbationChannel]) -> Vec<f64> {
     out.iter().map(|x| x / rows as f64).collect()
 }
 
-/// The adversary's reward for one env: −(task reward) − cost·‖perturbation / bound‖².
+/// The adversary's reward for one env: −(task reward) − cost·‖perturbation / bound‖². A value bounded at 0 is
+/// switched off (a config that removes a channel): it is always 0 and costs nothing.
 pub fn reward(task_reward: f32, perturbation: &[f32], bounds: &[f32], cost: f64) -> f32 {
-    let size: f64 = perturbation.iter().zip(bounds).map(|(p, b)| ((*p / *b) as f64).powi(2)).sum();
+    let size: f64 =
+        perturbation.iter().zip(bounds).filter(|(_, b)| **b > 0.0).map(|(p, b)| ((*p / *b) as f64).powi(2)).sum();
     (-(task_reward as f64) - cost * size) as f32
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_channel_bounded_at_zero_is_off_and_costs_nothing() {
+        let bounds = [0.0, 0.0, 2.0];
+        let mut p = [0.0f32; 3];
+        squash(&[0.7, -1.3, 0.5], &bounds, &mut p);
+        assert_eq!(&p[..2], &[0.0, 0.0]);
+        let r = reward(1.0, &p, &bounds, 0.5);
+        let want = -1.0 - 0.5 * (0.5f64.tanh()).powi(2);
+        assert!(r.is_finite() && (r as f64 - want).abs() < 1e-6, "{r} vs {want}");
+    }
 
     #[test]
     fn squashed_values_stay_inside_their_bounds() {
