@@ -275,7 +275,7 @@ impl Data {
     /// forward pass after restoring (for derived quantities) reads them and rewrites the warm start from them.
     pub fn state_len(&self) -> usize {
         let m = self.model();
-        m.nq() + 3 * m.nv() + m.na() + m.nu() + 1 + 6 * m.nbody()
+        self.state_len_without_forces() + m.nv() + 6 * m.nbody()
     }
 
     /// The snapshot length of builds before the applied forces were part of it (`load_state` pads such a

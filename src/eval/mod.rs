@@ -130,10 +130,10 @@ impl PolicyRunner {
         let policy = Policy::load(path)?;
         let m = &policy.meta;
         let spec_path = policy_robot(m).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        let (trained_on, _) = RobotSpec::load(&spec_path)?;
+        let (trained_on, trained_model) = RobotSpec::load(&spec_path)?;
         let (robot, model) = match &trained_on.approximates {
             Some(real) => RobotSpec::load(real)?,
-            None => RobotSpec::load(&spec_path)?,
+            None => (trained_on.clone(), trained_model),
         };
         let n = robot.n_motors();
         let layout = ObsLayout::new(n);

@@ -9,6 +9,7 @@ use mujoco_sys::{ffi, Data, Model, ObjType};
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{EnvError, Result};
+use crate::indices::RobotIndices;
 use crate::spec::RobotSpec;
 
 /// Loop closure is solved to this residual (m for a connect, rad for a joint equality).
@@ -39,24 +40,14 @@ impl Linkage {
         let mut m = model.try_clone()?;
         m.set_dense_jacobian();
         let m = Arc::new(m);
-        let joint = |name: &str| -> Result<usize> { Ok(m.id(ObjType::Joint, name)?) };
-        let (mut motor_qpos, mut motor_dof, mut joint_qpos) = (vec![], vec![], vec![]);
-        for mo in &spec.motors {
-            let (d, j) = (joint(&mo.drives)?, joint(&mo.joint)?);
-            motor_qpos.push(m.jnt_qposadr_of(d));
-            motor_dof.push(m.jnt_dofadr_of(d));
-            joint_qpos.push(m.jnt_qposadr_of(j));
-        }
-        let (mut passive_qpos, mut passive_dof, mut equalities) = (vec![], vec![], vec![]);
-        for l in &spec.loops {
-            for p in &l.passive {
-                let j = joint(p)?;
-                passive_qpos.push(m.jnt_qposadr_of(j));
-                passive_dof.push(m.jnt_dofadr_of(j));
-            }
-            for e in &l.equality {
-                equalities.push(m.id(ObjType::Equality, e)?);
-            }
+        // The addresses the env uses (actuated and kinematic joints, loops, stand keyframe), on this copy.
+        let idx = RobotIndices::resolve(&m, &Arc::new(spec.clone()))?;
+        let (motor_qpos, motor_dof, joint_qpos) = (idx.actuated_qpos, idx.actuated_dof, idx.joint_qpos);
+        let (mut passive_qpos, mut passive_dof) = (vec![], vec![]);
+        for p in spec.loops.iter().flat_map(|l| &l.passive) {
+            let j = m.id(ObjType::Joint, p)?;
+            passive_qpos.push(m.jnt_qposadr_of(j));
+            passive_dof.push(m.jnt_dofadr_of(j));
         }
         let joint_is_passive = (0..spec.motors.len())
             .map(|i| {
@@ -78,9 +69,8 @@ impl Linkage {
                 )));
             }
         }
-        let key = m.id(ObjType::Key, &spec.stand_keyframe)?;
+        let key = idx.stand_key;
         let key_qpos = m.key_qpos(key).to_vec();
-        let nominal_motors = motor_qpos.iter().map(|&a| key_qpos[a]).collect();
         let mut linkage = Linkage {
             data: Data::new(m)?,
             key,
@@ -90,8 +80,8 @@ impl Linkage {
             passive_qpos,
             passive_dof,
             joint_is_passive,
-            equalities,
-            nominal_motors,
+            equalities: idx.loops,
+            nominal_motors: idx.nominal_actuated,
         };
         linkage.check_keyframe(spec, &key_qpos)?;
         Ok(linkage)

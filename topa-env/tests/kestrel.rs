@@ -2,6 +2,8 @@
 //! loops, the computed motor↔joint maps match finite differences of the constrained model to 1e-6, the map is
 //! nonlinear (unlike TopA's M), and it is equivariant under the left↔right mirror the spec and MJCF define.
 
+mod common;
+
 use std::path::Path;
 
 use mujoco_sys::{Model, ObjType};
@@ -52,23 +54,11 @@ fn spec_loads_and_the_keyframe_closes_the_loops() {
 #[test]
 fn maps_match_finite_differences_and_are_nonlinear() {
     let (_, _, mut l) = kestrel();
-    let n = l.n_motors();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-    let h = 1e-4;
     let mut jacobians = Vec::new();
     for _ in 0..5 {
         let q = random_motors(&l, &mut rng, 0.3);
-        let j = l.jacobian(&q).unwrap();
-        for k in 0..n {
-            let (mut up, mut down) = (q.clone(), q.clone());
-            up[k] += h;
-            down[k] -= h;
-            let (a, b) = (l.joints(&up).unwrap(), l.joints(&down).unwrap());
-            for r in 0..n {
-                let fd = (a[r] - b[r]) / (2.0 * h);
-                assert!((fd - j[(r, k)]).abs() < 1e-6, "∂q_{r}/∂m_{k}: finite difference {fd} vs J {}", j[(r, k)]);
-            }
-        }
+        let j = common::jacobian_checked_by_finite_differences(&mut l, &q);
         // The ankle's roll depends on both motors (a parallel linkage, not one motor per joint).
         assert!(j[(5, 4)].abs() > 0.1 && j[(5, 5)].abs() > 0.1, "{}", j.view((4, 4), (2, 2)));
         let joints = l.joints(&q).unwrap();

@@ -2,6 +2,8 @@
 //! M = [[1, 0], [−1, 1]] to 1e-6, the Jacobian matches finite differences of the closed loop, the inverse map
 //! round-trips, torques follow virtual work; on the open model the maps are the identity.
 
+mod common;
+
 use std::path::Path;
 
 use rand::{RngExt, SeedableRng};
@@ -67,20 +69,9 @@ fn closed_chain_maps_reproduce_the_papers_m() {
 fn jacobian_matches_finite_differences_of_the_closed_loop() {
     let (_, mut l) = linkage(ModelKind::Closed);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
-    let h = 1e-4;
     for _ in 0..5 {
         let q = random_motors(&mut rng);
-        let j = l.jacobian(&q).unwrap();
-        for k in 0..N_MOTORS {
-            let (mut up, mut down) = (q.clone(), q.clone());
-            up[k] += h;
-            down[k] -= h;
-            let (a, b) = (l.joints(&up).unwrap(), l.joints(&down).unwrap());
-            for r in 0..N_MOTORS {
-                let fd = (a[r] - b[r]) / (2.0 * h);
-                assert!((fd - j[(r, k)]).abs() < 1e-6, "∂q_{r}/∂m_{k}: finite difference {fd} vs J {}", j[(r, k)]);
-            }
-        }
+        common::jacobian_checked_by_finite_differences(&mut l, &q);
     }
 }
 

@@ -258,7 +258,7 @@ impl Sim2Sim {
         let l = c.latency;
         self.action_delay = Delay::new(l.action_policy_steps * decimation + l.action_physics_steps, ctrl);
         self.sense(d, idx, 0.0)?;
-        self.reset_filter(idx)?;
+        self.reset_filter()?;
         self.sense_velocity(d, idx);
         self.obs_delay.reset(self.latest.clone());
         Ok(())
@@ -303,7 +303,7 @@ impl Sim2Sim {
                         self.filter_resets
                     );
                 }
-                self.reset_filter(idx)?;
+                self.reset_filter()?;
             }
         }
         self.sense_velocity(d, idx);
@@ -375,7 +375,7 @@ impl Sim2Sim {
 
     /// Restarts the filter at rest, the base as high above the ground as the feet are below it (what the robot
     /// knows from its own kinematics when it stands).
-    fn reset_filter(&mut self, _idx: &RobotIndices) -> Result<()> {
+    fn reset_filter(&mut self) -> Result<()> {
         self.map_joints()?;
         let r = self.imu_orientation;
         let feet: Vec<Vector3<f64>> =
