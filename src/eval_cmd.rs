@@ -217,19 +217,19 @@ pub fn policy_files(group: &str, paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     Ok(out)
 }
 
-pub fn run_ablate(o: Vec<PathBuf>, cp: Vec<PathBuf>, ca: Vec<PathBuf>, full: bool, c: Common) -> Result<()> {
+pub fn run_ablate(o: Vec<PathBuf>, cp: Vec<PathBuf>, ca: Vec<PathBuf>, extent: Extent, c: Common) -> Result<()> {
     let mut policies: Vec<(String, PathBuf)> = Vec::new();
     for (name, flag, paths) in [("O", "o", o), ("C", "c", cp), ("CA", "ca", ca)] {
         policies.extend(policy_files(flag, &paths)?.into_iter().map(|p| (name.to_string(), p)));
     }
-    let extent = if full { Extent::full() } else { Extent::quick() };
+    extent.check()?;
     let a = ablate::run(&policies, &c.settings()?, &extent)?;
     ablate::write(&a, &c.out)?;
     if c.json {
         return print_json(&a);
     }
-    if !full {
-        println!("(quick protocol: {0}×{0} push grid, {1} noise runs of {2} s per level; --full for the paper's 13×13 and 100 runs)\n", ((2.0 * extent.push_range_n / extent.push_step_n) as usize) + 1, extent.noise_runs, extent.noise_seconds);
+    if extent != Extent::full() {
+        println!("({}; --full for the paper's 13×13 grid to ±30 N and 100 runs)\n", extent.describe());
     }
     println!("{}", ablate::markdown(&a)?);
     println!("results: {} (ablation.md, ablation.json, CSVs, heatmaps.png/svg)", c.out.display());

@@ -15,7 +15,7 @@ use super::tracking::{self, TrackingRow};
 use super::{EvalSettings, PolicyRunner};
 
 /// How much of each experiment to run.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Extent {
     pub tracking_window_s: f64,
     pub tracking_transient_s: f64,
@@ -48,6 +48,32 @@ impl Extent {
     /// of 10 s per level.
     pub fn quick() -> Self {
         Extent { push_step_n: 10.0, noise_runs: 20, noise_seconds: 10.0, ..Extent::full() }
+    }
+    /// Refuses a grid that cannot be laid out, naming the flag.
+    pub fn check(&self) -> Result<()> {
+        ensure!(
+            self.push_step_n.is_finite() && self.push_step_n > 0.0,
+            "--push-step must be a positive force in N (got {})",
+            self.push_step_n
+        );
+        ensure!(
+            self.push_range_n.is_finite() && self.push_range_n >= 0.0,
+            "--push-range must be a force ≥ 0 in N (got {})",
+            self.push_range_n
+        );
+        Ok(())
+    }
+    /// The paper's push grid (±30 N), whatever its step: its mean t_fall values are comparable with ours.
+    pub fn paper_push_range(&self) -> bool {
+        self.push_range_n == Extent::full().push_range_n
+    }
+    /// One line: grid, noise runs.
+    pub fn describe(&self) -> String {
+        let cells = (2.0 * self.push_range_n / self.push_step_n).round() as usize + 1;
+        format!(
+            "{cells}×{cells} push grid to ±{} N, {} noise runs of {} s per level",
+            self.push_range_n, self.noise_runs, self.noise_seconds
+        )
     }
 }
 
@@ -103,8 +129,17 @@ pub fn run(policies: &[(String, PathBuf)], settings: &EvalSettings, extent: &Ext
 pub fn markdown(a: &Ablation) -> Result<String> {
     let paper = report::paper()?;
     let g = groups::group(&a.results);
+    let grid_note = if a.extent.paper_push_range() {
+        String::new()
+    } else {
+        format!(
+            "Push grid to ±{} N, not the paper's ±30 N: the paper's mean t_fall beside ours and the t_fall claims \
+             below are for its grid, so read them as a comparison between our groups only.\n\n",
+            a.extent.push_range_n
+        )
+    };
     Ok(format!(
-        "## Headline numbers\n\n{}\n## The paper's claims and the bars, checked\n\n{}\n## Commanded velocity \
+        "## Headline numbers\n\n{grid_note}{}\n## The paper's claims and the bars, checked\n\n{}\n## Commanded velocity \
          tracking\n{}\n## Gait\n\n{}\n## Each policy\n\n{}",
         groups::headline_markdown(&g, &paper),
         super::claims::markdown(&super::claims::check(&g)),
@@ -171,4 +206,25 @@ pub fn write(a: &Ablation, out: &Path) -> Result<()> {
         crate::plots::push_heatmaps(&refs, &out.join(format!("{stem}.png")), &out.join(format!("{stem}.svg")))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn push_grid_flags_are_checked_and_described() {
+        let full = Extent::full();
+        full.check().unwrap();
+        assert!(full.paper_push_range());
+        assert_eq!(full.describe(), "13×13 push grid to ±30 N, 100 noise runs of 20 s per level");
+        assert!(Extent::quick().describe().starts_with("7×7 push grid to ±30 N"));
+        let strong = Extent { push_range_n: 60.0, push_step_n: 10.0, ..Extent::full() };
+        assert!(!strong.paper_push_range());
+        assert!(strong.describe().starts_with("13×13 push grid to ±60 N"));
+        let zero_step = Extent { push_step_n: 0.0, ..Extent::full() };
+        assert!(zero_step.check().unwrap_err().to_string().contains("--push-step"));
+        let negative = Extent { push_range_n: -1.0, ..Extent::full() };
+        assert!(negative.check().unwrap_err().to_string().contains("--push-range"));
+    }
 }
