@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{ensure, Result};
+use anyhow::{ensure, Context, Result};
 use serde::Serialize;
 
 use super::groups;
@@ -49,19 +49,11 @@ impl Extent {
     pub fn quick() -> Self {
         Extent { push_step_n: 10.0, noise_runs: 20, noise_seconds: 10.0, ..Extent::full() }
     }
-    /// Refuses a grid that cannot be laid out, naming the flag.
+    /// Refuses a grid that cannot be laid out (push::axis's rules), naming the flags, before any policy runs.
     pub fn check(&self) -> Result<()> {
-        ensure!(
-            self.push_step_n.is_finite() && self.push_step_n > 0.0,
-            "--push-step must be a positive force in N (got {})",
-            self.push_step_n
-        );
-        ensure!(
-            self.push_range_n.is_finite() && self.push_range_n >= 0.0,
-            "--push-range must be a force ≥ 0 in N (got {})",
-            self.push_range_n
-        );
-        Ok(())
+        push::axis(self.push_range_n, self.push_step_n)
+            .map(|_| ())
+            .with_context(|| format!("--push-range {} N with --push-step {} N", self.push_range_n, self.push_step_n))
     }
     /// The paper's push grid (±30 N), whatever its step: its mean t_fall values are comparable with ours.
     pub fn paper_push_range(&self) -> bool {
@@ -69,7 +61,7 @@ impl Extent {
     }
     /// One line: grid, noise runs.
     pub fn describe(&self) -> String {
-        let cells = (2.0 * self.push_range_n / self.push_step_n).round() as usize + 1;
+        let cells = push::axis(self.push_range_n, self.push_step_n).map_or(0, |a| a.len());
         format!(
             "{cells}×{cells} push grid to ±{} N, {} noise runs of {} s per level",
             self.push_range_n, self.noise_runs, self.noise_seconds
@@ -133,9 +125,10 @@ pub fn markdown(a: &Ablation) -> Result<String> {
         String::new()
     } else {
         format!(
-            "Push grid to ±{} N, not the paper's ±30 N: the paper's mean t_fall beside ours and the t_fall claims \
+            "Push grid to ±{} N, not the paper's ±{} N: the paper's mean t_fall beside ours and the t_fall claims \
              below are for its grid, so read them as a comparison between our groups only.\n\n",
-            a.extent.push_range_n
+            a.extent.push_range_n,
+            Extent::full().push_range_n
         )
     };
     Ok(format!(
@@ -226,5 +219,7 @@ mod tests {
         assert!(zero_step.check().unwrap_err().to_string().contains("--push-step"));
         let negative = Extent { push_range_n: -1.0, ..Extent::full() };
         assert!(negative.check().unwrap_err().to_string().contains("--push-range"));
+        let uneven = Extent { push_range_n: 25.0, push_step_n: 10.0, ..Extent::full() };
+        assert!(format!("{:#}", uneven.check().unwrap_err()).contains("not a multiple"));
     }
 }
