@@ -224,14 +224,25 @@ pub fn run_ablate(o: Vec<PathBuf>, cp: Vec<PathBuf>, ca: Vec<PathBuf>, extent: E
     }
     extent.check()?;
     let a = ablate::run(&policies, &c.settings()?, &extent)?;
-    ablate::write(&a, &c.out)?;
+    report_ablation(&a, &c)
+}
+
+/// `topa ablate --merge`: the report of several earlier ablations joined.
+pub fn merge_ablations(files: &[PathBuf], c: Common) -> Result<()> {
+    let a = ablate::merge(files)?;
+    report_ablation(&a, &c)
+}
+
+fn report_ablation(a: &ablate::Ablation, c: &Common) -> Result<()> {
+    let extent = &a.extent;
+    ablate::write(a, &c.out)?;
     if c.json {
-        return print_json(&a);
+        return print_json(a);
     }
-    if extent != Extent::full() {
+    if *extent != Extent::full() {
         println!("({}; --full for the paper's 13×13 grid to ±30 N and 100 runs)\n", extent.describe());
     }
-    println!("{}", ablate::markdown(&a)?);
+    println!("{}", ablate::markdown(a)?);
     println!("results: {} (ablation.md, ablation.json, CSVs, heatmaps.png/svg)", c.out.display());
     Ok(())
 }

@@ -62,6 +62,10 @@ enum Cmd {
         /// Push grid step, N (the paper's: 5; the quick protocol's: 10).
         #[arg(long)]
         push_step: Option<f64>,
+        /// Instead of running policies: join the ablation.json files of earlier runs (same protocol and settings;
+        /// e.g. one per policy, run as each training ended) into one report with the groups' mean ± sd.
+        #[arg(long, num_args = 2.., conflicts_with_all = ["o", "c", "ca", "full", "push_range", "push_step"])]
+        merge: Vec<PathBuf>,
         #[command(flatten)]
         common: eval_cmd::Common,
     },
@@ -290,7 +294,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             eval_cmd::run_eval(cmd, common)
         }
-        Cmd::Ablate { o, c, ca, full, push_range, push_step, common } => {
+        Cmd::Ablate { merge, common, .. } if !merge.is_empty() => eval_cmd::merge_ablations(&merge, common),
+        Cmd::Ablate { o, c, ca, full, push_range, push_step, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let mut extent = if full { Extent::full() } else { Extent::quick() };
             extent.push_range_n = push_range.unwrap_or(extent.push_range_n);

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{ensure, Context, Result};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::groups;
 use super::noise::{self, NoiseRow};
@@ -15,7 +15,8 @@ use super::tracking::{self, TrackingRow};
 use super::{EvalSettings, PolicyRunner};
 
 /// How much of each experiment to run.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Extent {
     pub tracking_window_s: f64,
     pub tracking_transient_s: f64,
@@ -69,7 +70,8 @@ impl Extent {
     }
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PolicyResults {
     /// The group: O, C or CA.
     pub name: String,
@@ -83,7 +85,8 @@ pub struct PolicyResults {
     pub noise: Vec<NoiseRow>,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Ablation {
     pub settings: EvalSettings,
     pub extent: Extent,
@@ -115,6 +118,67 @@ pub fn run(policies: &[(String, PathBuf)], settings: &EvalSettings, extent: &Ext
         });
     }
     Ok(Ablation { settings: settings.clone(), extent: extent.clone(), results })
+}
+
+/// The groups in the order the report lists them.
+const GROUP_ORDER: [&str; 3] = ["O", "C", "CA"];
+
+/// Joins ablations written by earlier runs (`ablation.json`: one per policy, per machine or per session — each
+/// policy's numbers do not depend on the others, its noise streams come from the seed alone) into one. Refused
+/// when a file is not an ablation, when the protocols or evaluation settings differ (thread count aside: results do
+/// not depend on it), or when one policy file appears twice (it would count as two seeds).
+pub fn merge(files: &[PathBuf]) -> Result<Ablation> {
+    ensure!(files.len() >= 2, "--merge takes at least two ablation.json files");
+    let mut parts = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(f).with_context(|| format!("--merge: cannot read {}", f.display()))?;
+        let a: Ablation = serde_json::from_str(&text).with_context(|| {
+            format!("--merge: {} is not an ablation.json written by `topa ablate` (give that file)", f.display())
+        })?;
+        parts.push((f, a));
+    }
+    let comparable = |s: &EvalSettings| -> Result<serde_json::Value> {
+        let mut v = serde_json::to_value(s)?;
+        v.as_object_mut().map(|o| o.remove("threads"));
+        Ok(v)
+    };
+    let (first_file, first) = &parts[0];
+    let settings0 = comparable(&first.settings)?;
+    let mut results: Vec<PolicyResults> = Vec::new();
+    for (f, a) in &parts {
+        ensure!(
+            a.extent == first.extent,
+            "--merge: {} was run with another protocol ({}) than {} ({}); re-run one of them with the other's flags",
+            f.display(),
+            a.extent.describe(),
+            first_file.display(),
+            first.extent.describe()
+        );
+        ensure!(
+            comparable(&a.settings)? == settings0,
+            "--merge: {} was run with other evaluation settings (timestep, sim2sim, integrator, settle time or seed) \
+             than {}; merge only runs made with the same flags",
+            f.display(),
+            first_file.display()
+        );
+        for r in &a.results {
+            ensure!(
+                GROUP_ORDER.contains(&r.name.as_str()),
+                "--merge: {} has a policy in group {:?}; groups are O, C and CA",
+                f.display(),
+                r.name
+            );
+            ensure!(
+                !results.iter().any(|q| q.policy == r.policy),
+                "--merge: policy {} is in more than one file ({} among them); it would count as two seeds",
+                r.policy.display(),
+                f.display()
+            );
+            results.push(r.clone());
+        }
+    }
+    results.sort_by_key(|r| GROUP_ORDER.iter().position(|g| *g == r.name));
+    Ok(Ablation { settings: first.settings.clone(), extent: first.extent.clone(), results })
 }
 
 /// The Markdown report: the groups' headline numbers, tracking, gait, and every policy's own row.
@@ -221,5 +285,78 @@ mod tests {
         assert!(negative.check().unwrap_err().to_string().contains("--push-range"));
         let uneven = Extent { push_range_n: 25.0, push_step_n: 10.0, ..Extent::full() };
         assert!(format!("{:#}", uneven.check().unwrap_err()).contains("not a multiple"));
+    }
+
+    fn one(name: &str, policy: &str, t_fall: f64) -> PolicyResults {
+        let gait = super::super::gait::GaitStats { air_time_s: f64::NAN, ..Default::default() };
+        let row = TrackingRow {
+            key: "walk_forward".into(),
+            command: [0.5, 0.0, 0.0],
+            mae: f64::NAN,
+            mae_components: [f64::NAN, 0.1, 0.2],
+            mae_whole: [0.1, 0.2, 0.3],
+            mae_paper: 0.6,
+            mean_torque: 30.0,
+            mean_roll: 0.0,
+            mean_pitch: 0.0,
+            fell: true,
+            fell_at: Some(1.5),
+            gait,
+        };
+        let grid =
+            PushGrid { axis: vec![-30.0, 0.0, 30.0], t_fall: vec![t_fall; 9], window_s: 10.0, command: [0.0; 3] };
+        PolicyResults {
+            name: name.into(),
+            policy: policy.into(),
+            trained_on: "closed".into(),
+            tracking: vec![row],
+            push: grid.clone(),
+            push_walking: Some(grid),
+            noise: vec![NoiseRow { sigma_v: 0.175, sigma_wz: 0.5, runs: 4, successes: 3, success_pct: 75.0 }],
+        }
+    }
+
+    #[test]
+    fn merged_ablations_read_back_whole_and_refuse_what_cannot_be_joined() {
+        let dir = std::env::temp_dir().join(format!("topa-merge-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let settings = EvalSettings { threads: 1, ..Default::default() };
+        let write = |file: &str, extent: Extent, results: Vec<PolicyResults>| {
+            let a = Ablation { settings: settings.clone(), extent, results };
+            report::write_json(&dir, file, &a).unwrap();
+            dir.join(file)
+        };
+        let ca = write("ca.json", Extent::full(), vec![one("CA", "ca1.json", 9.0)]);
+        let c = write("c.json", Extent::full(), vec![one("C", "c1.json", 8.0), one("O", "o1.json", 4.0)]);
+        // Thread count may differ: results do not depend on it.
+        let mut more = settings.clone();
+        more.threads = 2;
+        let c2_ablation = Ablation { settings: more, extent: Extent::full(), results: vec![one("C", "c2.json", 7.0)] };
+        report::write_json(&dir, "c2.json", &c2_ablation).unwrap();
+        let m = merge(&[ca.clone(), c.clone(), dir.join("c2.json")]).unwrap();
+        let order: Vec<(&str, &str)> =
+            m.results.iter().map(|r| (r.name.as_str(), r.policy.to_str().unwrap())).collect();
+        assert_eq!(order, [("O", "o1.json"), ("C", "c1.json"), ("C", "c2.json"), ("CA", "ca1.json")]);
+        let g = groups::group(&m.results);
+        assert_eq!(g[1].t_fall_standing().mean, 7.5);
+        // NaN (written as null) reads back as NaN, every other number exactly.
+        let row = &m.results[1].tracking[0];
+        assert!(row.mae.is_nan() && row.mae_components[0].is_nan() && row.gait.air_time_s.is_nan());
+        assert_eq!((row.mae_components[2], row.fell_at, row.mae_paper), (0.2, Some(1.5), 0.6));
+
+        let err = |files: &[PathBuf]| format!("{:#}", merge(files).unwrap_err());
+        let quick = write("quick.json", Extent::quick(), vec![one("C", "c3.json", 7.0)]);
+        assert!(err(&[c.clone(), quick]).contains("another protocol"));
+        let mut other = settings.clone();
+        other.seed = 2;
+        let s2 = Ablation { settings: other, extent: Extent::full(), results: vec![one("C", "c4.json", 7.0)] };
+        report::write_json(&dir, "seed2.json", &s2).unwrap();
+        assert!(err(&[c.clone(), dir.join("seed2.json")]).contains("other evaluation settings"));
+        assert!(err(&[c.clone(), c.clone()]).contains("c1.json is in more than one file"));
+        std::fs::write(dir.join("policy.json"), "{\"weights\": \"policy.safetensors\"}").unwrap();
+        assert!(err(&[c.clone(), dir.join("policy.json")]).contains("is not an ablation.json"));
+        assert!(err(&[c.clone(), dir.join("missing.json")]).contains("cannot read"));
+        assert!(err(std::slice::from_ref(&c)).contains("at least two"));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

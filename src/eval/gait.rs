@@ -11,21 +11,29 @@ use serde::Serialize;
 use topa_env::TopaEnv;
 
 /// The gait of one run.
-#[derive(Debug, Clone, Default, Serialize, PartialEq)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
 pub struct GaitStats {
     /// Observed time, s.
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub seconds: f64,
     /// Touchdowns per second, per foot (mean of both feet).
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub steps_per_s: f64,
     /// Mean air time of a step, s.
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub air_time_s: f64,
     /// Mean of each step's highest sole point during its swing, m.
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub clearance_m: f64,
     /// Horizontal sliding of the sole while in contact, per stance phase, m.
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub slip_per_stance_m: f64,
     /// Share of the time with both feet in contact.
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub double_support: f64,
     /// Mean torso height, m.
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub base_height_m: f64,
 }
 

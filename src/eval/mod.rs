@@ -7,6 +7,7 @@ pub mod ablate;
 pub mod claims;
 pub mod gait;
 pub mod groups;
+mod nan_json;
 pub mod noise;
 pub mod push;
 pub mod report;

@@ -17,12 +17,14 @@ use super::{EvalSettings, PolicyRunner};
 pub const LEVELS: [(f64, f64); 4] = [(0.175, 0.5), (0.35, 1.0), (0.525, 1.5), (0.7, 2.0)];
 pub const BASE_COMMAND: [f64; 3] = [0.5, 0.0, 0.0];
 
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
 pub struct NoiseRow {
     pub sigma_v: f64,
     pub sigma_wz: f64,
     pub runs: usize,
     pub successes: usize,
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub success_pct: f64,
 }
 

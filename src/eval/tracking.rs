@@ -34,21 +34,29 @@ pub const COMMANDS: [(&str, &str, [f64; 3]); 6] = [
     ("rotate_cw", "Rotate clockwise: w_z = −1.0 rad/s", [0.0, 0.0, -1.0]),
 ];
 
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
 pub struct TrackingRow {
     pub key: String,
     pub command: [f64; 3],
     /// Ours: mean of the three component errors, after the transient, up to a fall.
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub mae: f64,
     /// Ours, per component (v_x, v_y, w_z).
+    #[serde(deserialize_with = "super::nan_json::f64x3")]
     pub mae_components: [f64; 3],
     /// Paper-comparable, per component: the whole window from the command's start, continuing after a fall.
+    #[serde(deserialize_with = "super::nan_json::f64x3")]
     pub mae_whole: [f64; 3],
     /// Paper-comparable "v_x,y, w_z MAE": the sum of `mae_whole`.
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub mae_paper: f64,
     /// Whole-window means (as `mae_whole`).
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub mean_torque: f64,
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub mean_roll: f64,
+    #[serde(deserialize_with = "super::nan_json::f64")]
     pub mean_pitch: f64,
     pub fell: bool,
     /// Seconds into the window when it fell.
