@@ -190,6 +190,9 @@ pub struct Sim2Sim {
     obs_delay: Delay<Sensed>,
     action_delay: Delay<Vec<f64>>,
     target: Vec<f64>,
+    /// Per-physics-step buffers: the delayed targets applied, the motor speeds.
+    applied: Vec<f64>,
+    speeds: Vec<f64>,
     latest: Sensed,
     /// The IMU's latest attitude and specific-force readings (world ← IMU; IMU frame).
     imu_orientation: UnitQuaternion<f64>,
@@ -230,6 +233,8 @@ impl Sim2Sim {
             accel: Noise3::default(),
             orientation: Noise3::default(),
             target: vec![0.0; n],
+            applied: vec![0.0; n],
+            speeds: vec![0.0; n],
             latest: empty,
             imu_orientation: UnitQuaternion::identity(),
             imu_accel: [0.0; 3],
@@ -271,13 +276,17 @@ impl Sim2Sim {
 
     /// Before each `mj_step`: the delayed targets and the torque–speed limits go into the model and data.
     pub fn before_physics_step(&mut self, d: &mut Data, idx: &RobotIndices) {
-        let applied = self.action_delay.push(self.target.clone());
-        for (&a, &u) in idx.actuators.iter().zip(&applied) {
+        self.action_delay.shift(&self.target, &mut self.applied);
+        for (&a, &u) in idx.actuators.iter().zip(&self.applied) {
             d.ctrl_mut()[a] = u;
         }
         let ts = &self.cfg.torque_speed;
         if ts.enabled {
-            let speeds: Vec<f64> = idx.actuators.iter().map(|&a| d.actuator_velocity()[a]).collect();
+            // Read before the model is borrowed mutably.
+            let speeds = &mut self.speeds;
+            for (s, &a) in speeds.iter_mut().zip(&idx.actuators) {
+                *s = d.actuator_velocity()[a];
+            }
             let per_leg = ts.full_torque_speed.len();
             let m = d.model_mut();
             for i in 0..idx.n_motors {
@@ -322,24 +331,24 @@ impl Sim2Sim {
 
     /// IMU and encoders (everything but the linear velocity).
     fn sense(&mut self, d: &Data, idx: &RobotIndices, dt: f64) -> Result<()> {
-        let c = self.cfg.clone();
+        let Self { cfg: c, rng, latest, gyro, orientation, accel, .. } = self;
         let b = idx.base_qpos;
         let q_true = quat_of(&d.qpos()[b + 3..b + 7]);
         let w_true = [d.qvel()[idx.base_dof + 3], d.qvel()[idx.base_dof + 4], d.qvel()[idx.base_dof + 5]];
-        self.latest.ang_vel = self.gyro.corrupt(&c.gyro, w_true, dt, &mut self.rng);
-        let err = self.orientation.corrupt(&c.orientation, [0.0; 3], dt, &mut self.rng);
+        latest.ang_vel = gyro.corrupt(&c.gyro, w_true, dt, rng);
+        let err = orientation.corrupt(&c.orientation, [0.0; 3], dt, rng);
         let q_meas = q_true * UnitQuaternion::from_scaled_axis(Vector3::from(err));
         let g = q_meas.inverse_transform_vector(&Vector3::new(0.0, 0.0, -1.0));
-        self.latest.gravity = [g.x, g.y, g.z];
-        self.imu_orientation = q_meas;
+        latest.gravity = [g.x, g.y, g.z];
         if c.estimator.enabled {
             let a = &d.sensordata()[idx.imu_accel..idx.imu_accel + 3];
-            self.imu_accel = self.accel.corrupt(&c.accel, [a[0], a[1], a[2]], dt, &mut self.rng);
+            self.imu_accel = accel.corrupt(&c.accel, [a[0], a[1], a[2]], dt, rng);
         }
         for i in 0..idx.n_motors {
-            self.latest.motor_pos[i] = c.encoders.quantise(d.qpos()[idx.actuated_qpos[i]]);
-            self.latest.motor_vel[i] = c.encoders.velocity(d.qvel()[idx.actuated_dof[i]], &mut self.rng);
+            latest.motor_pos[i] = c.encoders.quantise(d.qpos()[idx.actuated_qpos[i]]);
+            latest.motor_vel[i] = c.encoders.velocity(d.qvel()[idx.actuated_dof[i]], rng);
         }
+        self.imu_orientation = q_meas;
         Ok(())
     }
 

@@ -131,6 +131,21 @@ impl<T: Clone> Delay<T> {
     }
 }
 
+impl Delay<Vec<f64>> {
+    /// `push` for vectors without allocating (it runs every physics step): `out` gets the value of `delay` pushes
+    /// ago, and the oldest buffer is reused for `input`.
+    pub fn shift(&mut self, input: &[f64], out: &mut [f64]) {
+        match self.queue.pop_front() {
+            None => out.copy_from_slice(input),
+            Some(mut oldest) => {
+                out.copy_from_slice(&oldest);
+                oldest.copy_from_slice(input);
+                self.queue.push_back(oldest);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -193,6 +208,19 @@ mod tests {
             let out: Vec<i32> = (0..8).map(|i| q.push(i)).collect();
             let want: Vec<i32> = (0..8).map(|i| if i < d as i32 { -1 } else { i - d as i32 }).collect();
             assert_eq!(out, want, "delay {d}");
+        }
+    }
+    #[test]
+    fn shift_delays_vectors_like_push() {
+        for delay in [0, 1, 3] {
+            let mut a = Delay::new(delay, vec![0.0, 0.0]);
+            let mut b = a.clone();
+            let mut out = [f64::NAN; 2];
+            for k in 1..8 {
+                let v = vec![k as f64, -(k as f64)];
+                b.shift(&v, &mut out);
+                assert_eq!(a.push(v).as_slice(), out.as_slice(), "delay {delay}, push {k}");
+            }
         }
     }
 }
