@@ -72,7 +72,7 @@ pub fn summarize(path: &Path) -> Result<RobotSummary> {
             spread = spread.max((j - &j0).abs().max());
         }
     }
-    let kind = match JointMap::new(&spec, &model)? {
+    let kind = match JointMap::from_linkage(linkage)? {
         JointMap::Identity => "identity",
         JointMap::Linear { .. } => "linear",
         JointMap::Solve(_) => "nonlinear",

@@ -273,7 +273,14 @@ impl JointMap {
         if spec.loops.is_empty() {
             return Ok(JointMap::Identity);
         }
-        let mut l = Linkage::new(spec, model)?;
+        JointMap::from_linkage(Linkage::new(spec, model)?)
+    }
+
+    /// The map of an already built linkage (identity when it has no loops).
+    pub fn from_linkage(mut l: Linkage) -> Result<JointMap> {
+        if l.passive_qpos.is_empty() {
+            return Ok(JointMap::Identity);
+        }
         let q0 = l.nominal_motors.clone();
         let j0 = l.jacobian(&q0)?;
         let mut linear = true;
