@@ -28,6 +28,12 @@ meta["weights"] = f"{stem}.safetensors"
 runs_dir = str(run.resolve().parent)
 p = meta["provenance"]
 p["command"] = p["command"].replace(runs_dir + "/", "runs/")
+# Any other absolute run folder in the command (e.g. --init-from a run kept elsewhere) becomes runs/<its name> too.
+p["command"] = " ".join(
+    f"runs/{Path(t).name}" if Path(t).is_absolute() else t for t in p["command"].split(" ")
+)
+if any(x in json.dumps(meta) for x in (str(Path.home()), "/root/", "/home/")):
+    sys.exit(f"{run}/policy.json still names a path of this machine after rewriting the command: ship by hand")
 tmp = dest / f".{stem}.json.tmp"
 tmp.write_text(json.dumps(meta, indent=2) + "\n")
 tmp.replace(dest / f"{stem}.json")
