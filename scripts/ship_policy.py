@@ -13,7 +13,11 @@ import sys
 import zlib
 from pathlib import Path
 
+if len(sys.argv) != 3 or sys.argv[1].startswith("-"):
+    sys.exit("usage: scripts/ship_policy.py RUN_FOLDER NAME   (e.g. ~/runs/C-s1 C/seed1)")
 run, name = Path(sys.argv[1]), sys.argv[2]
+if not (run / "policy.json").is_file():
+    sys.exit(f"{run}/policy.json not found: is {run} a finished training run (topa train --out {run})?")
 meta = json.loads((run / "policy.json").read_text())
 weights = (run / meta["weights"]).read_bytes()
 if zlib.crc32(weights) != meta["weights_crc32"]:
