@@ -13,6 +13,19 @@ import sys
 import zlib
 from pathlib import Path
 
+
+def strings(v):
+    """Every string in the sidecar, however deeply nested."""
+    if isinstance(v, str):
+        yield v
+    elif isinstance(v, dict):
+        for x in v.values():
+            yield from strings(x)
+    elif isinstance(v, list):
+        for x in v:
+            yield from strings(x)
+
+
 if len(sys.argv) != 3 or sys.argv[1].startswith("-"):
     sys.exit("usage: scripts/ship_policy.py RUN_FOLDER NAME   (e.g. ~/runs/C-s1 C/seed1)")
 run, name = Path(sys.argv[1]), sys.argv[2]
@@ -25,9 +38,6 @@ if zlib.crc32(weights) != meta["weights_crc32"]:
 root = Path(__file__).resolve().parent.parent / "assets" / "policies"
 dest = (root / name).parent
 stem = Path(name).name
-dest.mkdir(parents=True, exist_ok=True)
-shutil.copyfile(run / meta["weights"], dest / f"{stem}.safetensors")
-meta["weights"] = f"{stem}.safetensors"
 # Where the runs lived on the training machine is nobody's business: runs/<folder> in the record.
 runs_dir = str(run.resolve().parent)
 p = meta["provenance"]
@@ -36,8 +46,14 @@ p["command"] = p["command"].replace(runs_dir + "/", "runs/")
 p["command"] = " ".join(
     f"runs/{Path(t).name}" if Path(t).is_absolute() else t for t in p["command"].split(" ")
 )
-if any(x in json.dumps(meta) for x in (str(Path.home()), "/root/", "/home/")):
+
+# A shipped sidecar names files relative to the repository; any absolute path left is this machine's.
+if any(Path(t).is_absolute() for s in strings(meta) for t in s.replace("=", " ").split()):
     sys.exit(f"{run}/policy.json still names a path of this machine after rewriting the command: ship by hand")
+# Only now that the sidecar is clean is anything written.
+dest.mkdir(parents=True, exist_ok=True)
+shutil.copyfile(run / meta["weights"], dest / f"{stem}.safetensors")
+meta["weights"] = f"{stem}.safetensors"
 tmp = dest / f".{stem}.json.tmp"
 tmp.write_text(json.dumps(meta, indent=2) + "\n")
 tmp.replace(dest / f"{stem}.json")
