@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds, and runs the main job: the paper's sim2sim experiments (tracking, push grid,
 # command noise) for the shipped seeds of O, C and C+A (assets/policies/{O,C,CA}/, the current preset), each group's
-# mean ± sd printed beside the paper's numbers, with the heatmaps written to out/ablation/. Extra arguments go to `topa ablate` (e.g. --full for the paper's whole protocol).
+# mean ± sd printed beside the paper's numbers, with the heatmaps written to out/ablation/. Extra arguments go to
+# `topa ablate` (e.g. --full for the paper's whole protocol).
 set -euo pipefail
 cd "$(dirname "$0")"
 . scripts/setup.sh
