@@ -329,3 +329,37 @@ fn the_bundled_closed_chain_policy_takes_real_steps() {
         assert!(row.mae_paper < 0.6 && row.mae < 0.2, "{}: it tracks: {row:?}", row.key);
     }
 }
+
+#[test]
+fn every_shipped_policy_loads_with_its_own_weights() {
+    // A sidecar names its weights file; moving a policy (`git mv`) without rewriting that name leaves a policy
+    // that cannot load, so every shipped pair is checked: same stem, checksum, shapes, robot spec.
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(&p, out);
+            } else if p.extension().is_some_and(|x| x == "json" || x == "safetensors") {
+                out.push(p);
+            }
+        }
+    }
+    let root = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies"));
+    let mut files = Vec::new();
+    walk(root, &mut files);
+    let sidecars: Vec<&PathBuf> = files.iter().filter(|p| p.extension().unwrap() == "json").collect();
+    for p in &files {
+        let pair = p.with_extension(if p.extension().unwrap() == "json" { "safetensors" } else { "json" });
+        assert!(pair.exists(), "{} has no {}", p.display(), pair.display());
+    }
+    for p in &sidecars {
+        let meta: PolicyMeta = serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+        let stem = p.file_stem().unwrap().to_string_lossy();
+        assert_eq!(meta.weights, format!("{stem}.safetensors"), "{}: the sidecar names another file", p.display());
+        PolicyRunner::load(p, "shipped").unwrap_or_else(|e| panic!("{}: {e:#}", p.display()));
+    }
+    for group in ["O", "C", "CA"] {
+        let n = sidecars.iter().filter(|p| p.parent() == Some(&root.join(group))).count();
+        assert!(n >= 2, "assets/policies/{group}/ holds the group's seeds ({n} found)");
+    }
+}
