@@ -91,6 +91,9 @@ pub enum EvalCmd {
         /// Seconds per command (after settling).
         #[arg(long, default_value_t = 10.0)]
         seconds: f64,
+        /// Initial states per command (the row reports their mean, falls and stand-stills).
+        #[arg(long, default_value_t = 10)]
+        starts: usize,
     },
     /// Constant torso force on a grid: time to fall, mean t_fall, heatmap (PNG + SVG).
     Push {
@@ -138,9 +141,9 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
     std::fs::create_dir_all(&c.out)?;
     let paper = report::paper()?;
     match cmd {
-        EvalCmd::Tracking { policy, seconds } => {
+        EvalCmd::Tracking { policy, seconds, starts } => {
             let mut r = PolicyRunner::load(&policy, "policy")?;
-            let rows = tracking::run(&mut r, &s, seconds, 2.0_f64.min(seconds / 2.0))?;
+            let rows = tracking::run(&mut r, &s, seconds, 2.0_f64.min(seconds / 2.0), starts)?;
             report::write_json(&c.out, "tracking.json", &rows)?;
             report::write_text(&c.out, "tracking.csv", &report::tracking_csv(&rows))?;
             if c.json {

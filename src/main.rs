@@ -62,9 +62,13 @@ enum Cmd {
         /// Push grid step, N (the paper's: 5; the quick protocol's: 10).
         #[arg(long)]
         push_step: Option<f64>,
+        /// Initial states each tracking command runs from (full protocol: 10, quick: 3): a policy that sometimes
+        /// stands still on a command from rest shows as a count, not as one reset's coin flip.
+        #[arg(long)]
+        tracking_starts: Option<usize>,
         /// Instead of running policies: join the ablation.json files of earlier runs (same protocol and settings;
         /// e.g. one per policy, run as each training ended) into one report with the groups' mean ± sd.
-        #[arg(long, num_args = 2.., conflicts_with_all = ["o", "c", "ca", "full", "push_range", "push_step"])]
+        #[arg(long, num_args = 2.., conflicts_with_all = ["o", "c", "ca", "full", "push_range", "push_step", "tracking_starts"])]
         merge: Vec<PathBuf>,
         #[command(flatten)]
         common: eval_cmd::Common,
@@ -295,11 +299,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             eval_cmd::run_eval(cmd, common)
         }
         Cmd::Ablate { merge, common, .. } if !merge.is_empty() => eval_cmd::merge_ablations(&merge, common),
-        Cmd::Ablate { o, c, ca, full, push_range, push_step, common, .. } => {
+        Cmd::Ablate { o, c, ca, full, push_range, push_step, tracking_starts, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let mut extent = if full { Extent::full() } else { Extent::quick() };
             extent.push_range_n = push_range.unwrap_or(extent.push_range_n);
             extent.push_step_n = push_step.unwrap_or(extent.push_step_n);
+            extent.tracking_starts = tracking_starts.unwrap_or(extent.tracking_starts);
             eval_cmd::run_ablate(o, c, ca, extent, common)
         }
         Cmd::Export { policy, onnx, motor_targets, check } => {

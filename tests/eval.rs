@@ -102,6 +102,35 @@ fn tracking_metrics_on_hand_made_trajectories() {
     assert!((m.torque - 20.0).abs() < 1e-12);
     assert!((m.roll - 0.02).abs() < 1e-12 && (m.pitch + 0.04).abs() < 1e-12);
     assert!(tracking::TrackingAccumulator::default().finish().mae().is_nan());
+    assert!((m.velocity[0] - 0.5).abs() < 1e-12 && (m.velocity[2] + 0.2).abs() < 1e-12, "{m:?}");
+    // Along the command it moves at the commanded speed: it walks. Turning at w_z = 1.0 it would stand still, and
+    // so would a robot moving backwards against the command; a zero command or an empty window never counts.
+    assert!(!m.stood_still([0.5, 0.0, 0.0]));
+    assert!(m.stood_still([0.0, 0.0, 1.0]));
+    assert!(m.stood_still([-0.5, 0.0, 0.0]));
+    assert!(!m.stood_still([0.0; 3]));
+    assert!(!tracking::TrackingAccumulator::default().finish().stood_still([0.5, 0.0, 0.0]));
+}
+
+#[test]
+fn a_commands_row_is_the_mean_over_its_starts_with_falls_and_stand_stills_counted() {
+    // Three starts of a 1 rad/s turn: one turns at 0.9 rad/s, one stands still, one turns and falls at 6 s.
+    let start = |w: f64, fell_at: Option<f64>| {
+        let mut acc = tracking::TrackingAccumulator::default();
+        for _ in 0..10 {
+            acc.add([0.0, 0.0, 1.0], [0.0; 3], [0.0, 0.0, w], &[2.0; 10], 0.0, 0.1);
+        }
+        tracking::StartResult { ours: acc.finish(), whole: acc.finish(), gait: Default::default(), fell_at }
+    };
+    let starts = [start(0.9, None), start(0.02, None), start(0.8, Some(6.0))];
+    let row = tracking::combine("rotate_ccw", [0.0, 0.0, 1.0], &starts);
+    assert!((row.mae_whole[2] - (0.1 + 0.98 + 0.2) / 3.0).abs() < 1e-12, "{row:?}");
+    assert!((row.mae_paper - row.mae_whole.iter().sum::<f64>()).abs() < 1e-12);
+    assert!((row.mean_torque - 20.0).abs() < 1e-12 && (row.mean_pitch - 0.1).abs() < 1e-12);
+    assert_eq!((row.starts, row.falls, row.stood_still, row.fell, row.fell_at), (3, Some(1), Some(1), true, Some(6.0)));
+    let one = tracking::combine("rotate_ccw", [0.0, 0.0, 1.0], &starts[..1]);
+    assert_eq!((one.falls, one.stood_still, one.fell), (Some(0), Some(0), false));
+    assert!((one.mae_whole[2] - 0.1).abs() < 1e-12);
 }
 
 #[test]
@@ -111,15 +140,15 @@ fn scripted_policies_behave_as_known() {
     // robot stands, leaning forward by the sag, tracking nothing.
     let zero = constant_policy(&dir, "zero", ModelKind::Closed, [0.0; N_MOTORS]);
     let mut r = PolicyRunner::load(&zero, "zero").unwrap();
-    let rows = tracking::run(&mut r, &quick(), 4.0, 1.0).unwrap();
+    let rows = tracking::run(&mut r, &quick(), 4.0, 1.0, 2).unwrap();
     for row in &rows {
         assert!(!row.fell && row.mean_pitch > 0.03 && row.mean_pitch < 0.2, "zero action stands, leaning: {row:?}");
     }
     // Folding the knees to their stop drops the torso: every command ends in a fall.
     let crouch = constant_policy(&dir, "crouch", ModelKind::Closed, crouch_action());
     let mut r = PolicyRunner::load(&crouch, "crouch").unwrap();
-    let rows = tracking::run(&mut r, &quick(), 4.0, 1.0).unwrap();
-    assert!(rows.iter().all(|row| row.fell), "a crouching policy falls: {rows:?}");
+    let rows = tracking::run(&mut r, &quick(), 4.0, 1.0, 2).unwrap();
+    assert!(rows.iter().all(|row| row.falls == Some(2)), "a crouching policy falls from every start: {rows:?}");
     for row in &rows {
         // The paper-comparable error goes on over the robot on the floor: each component's error is about its
         // command's magnitude, and their sum about the command's L1 norm.
@@ -130,9 +159,10 @@ fn scripted_policies_behave_as_known() {
     // Holding the keyframe targets stands for the whole window on every command, without tracking it.
     let hold = constant_policy(&dir, "hold", ModelKind::Closed, hold_action());
     let mut r = PolicyRunner::load(&hold, "hold").unwrap();
-    let rows = tracking::run(&mut r, &quick(), 4.0, 1.0).unwrap();
+    let rows = tracking::run(&mut r, &quick(), 4.0, 1.0, 2).unwrap();
     for row in &rows {
         assert!(!row.fell, "{row:?}");
+        assert_eq!((row.starts, row.falls, row.stood_still), (2, Some(0), Some(2)), "it stands from both starts");
         let expected = (row.command[0].abs() + row.command[1].abs() + row.command[2].abs()) / 3.0;
         assert!((row.mae - expected).abs() < 0.02, "standing still, MAE = mean |command|: {row:?}");
         assert!(row.mean_roll.abs() < 0.01 && row.mean_pitch.abs() < 0.02);
@@ -316,11 +346,11 @@ fn mcap_recording_reads_back_with_the_expected_channels() {
 fn the_bundled_closed_chain_policy_takes_real_steps() {
     let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C.json"));
     let mut r = PolicyRunner::load(path, "C").unwrap();
-    let rows = tracking::run(&mut r, &EvalSettings::default(), 6.0, 2.0).unwrap();
+    let rows = tracking::run(&mut r, &EvalSettings::default(), 6.0, 2.0, 2).unwrap();
     for row in &rows {
         let g = &row.gait;
-        assert!(!row.fell, "{row:?}");
-        assert!((g.seconds - 4.0).abs() < 0.05, "gait measured over the window after the transient: {g:?}");
+        assert_eq!((row.falls, row.stood_still), (Some(0), Some(0)), "it walks off from both starts: {row:?}");
+        assert!((g.seconds - 8.0).abs() < 0.1, "gait over the window after the transient, both starts: {g:?}");
         assert!(g.steps_per_s > 1.0 && g.steps_per_s < 6.0, "{}: walking means stepping: {g:?}", row.key);
         assert!(g.air_time_s > 0.04 && g.air_time_s < 0.6 && g.clearance_m > 0.005, "{}: {g:?}", row.key);
         assert!(g.double_support < 0.6, "{}: feet alternate: {g:?}", row.key);

@@ -20,6 +20,9 @@ use super::{EvalSettings, PolicyRunner};
 pub struct Extent {
     pub tracking_window_s: f64,
     pub tracking_transient_s: f64,
+    /// Initial states each tracking command runs from (1 in reports written before there was a choice).
+    #[serde(default = "one")]
+    pub tracking_starts: usize,
     pub push_range_n: f64,
     pub push_step_n: f64,
     pub push_window_s: f64,
@@ -36,6 +39,7 @@ impl Extent {
         Extent {
             tracking_window_s: 10.0,
             tracking_transient_s: 2.0,
+            tracking_starts: 10,
             push_range_n: 30.0,
             push_step_n: 5.0,
             push_window_s: 10.0,
@@ -46,12 +50,16 @@ impl Extent {
         }
     }
     /// A quick look (a few minutes for three policies on 2 cores): 7 × 7 push grid (10 N steps), 20 noise runs
-    /// of 10 s per level.
+    /// of 10 s per level, 3 starts per tracking command.
     pub fn quick() -> Self {
-        Extent { push_step_n: 10.0, noise_runs: 20, noise_seconds: 10.0, ..Extent::full() }
+        Extent { tracking_starts: 3, push_step_n: 10.0, noise_runs: 20, noise_seconds: 10.0, ..Extent::full() }
     }
     /// Refuses a grid that cannot be laid out (push::axis's rules), naming the flags, before any policy runs.
     pub fn check(&self) -> Result<()> {
+        ensure!(
+            self.tracking_starts >= 1,
+            "--tracking-starts must be at least 1 (initial states per tracking command)"
+        );
         push::axis(self.push_range_n, self.push_step_n)
             .map(|_| ())
             .with_context(|| format!("--push-range {} N with --push-step {} N", self.push_range_n, self.push_step_n))
@@ -60,14 +68,18 @@ impl Extent {
     pub fn paper_push_range(&self) -> bool {
         self.push_range_n == Extent::full().push_range_n
     }
-    /// One line: grid, noise runs.
+    /// One line: grid, noise runs, tracking starts.
     pub fn describe(&self) -> String {
         let cells = push::axis(self.push_range_n, self.push_step_n).map_or(0, |a| a.len());
         format!(
-            "{cells}×{cells} push grid to ±{} N, {} noise runs of {} s per level",
-            self.push_range_n, self.noise_runs, self.noise_seconds
+            "{cells}×{cells} push grid to ±{} N, {} noise runs of {} s per level, {} starts per tracking command",
+            self.push_range_n, self.noise_runs, self.noise_seconds, self.tracking_starts
         )
     }
+}
+
+fn one() -> usize {
+    1
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -100,7 +112,8 @@ pub fn run(policies: &[(String, PathBuf)], settings: &EvalSettings, extent: &Ext
     for (name, path) in policies {
         let mut runner = PolicyRunner::load(path, label(name))?;
         eprintln!("{}: {} (trained on the {} model)", label(name), path.display(), runner.trained_on());
-        let tracking = tracking::run(&mut runner, settings, extent.tracking_window_s, extent.tracking_transient_s)?;
+        let (window, transient) = (extent.tracking_window_s, extent.tracking_transient_s);
+        let tracking = tracking::run(&mut runner, settings, window, transient, extent.tracking_starts)?;
         let push =
             push::run(&mut runner, settings, extent.push_range_n, extent.push_step_n, extent.push_window_s, [0.0; 3])?;
         let (range, step, window) = (extent.push_range_n, extent.push_step_n, extent.push_window_s);
@@ -274,7 +287,12 @@ mod tests {
         let full = Extent::full();
         full.check().unwrap();
         assert!(full.paper_push_range());
-        assert_eq!(full.describe(), "13×13 push grid to ±30 N, 100 noise runs of 20 s per level");
+        assert_eq!(
+            full.describe(),
+            "13×13 push grid to ±30 N, 100 noise runs of 20 s per level, 10 starts per tracking command"
+        );
+        let no_start = Extent { tracking_starts: 0, ..Extent::full() };
+        assert!(no_start.check().unwrap_err().to_string().contains("--tracking-starts"));
         assert!(Extent::quick().describe().starts_with("7×7 push grid to ±30 N"));
         let strong = Extent { push_range_n: 60.0, push_step_n: 10.0, ..Extent::full() };
         assert!(!strong.paper_push_range());
@@ -302,6 +320,9 @@ mod tests {
             fell: true,
             fell_at: Some(1.5),
             gait,
+            starts: 2,
+            falls: Some(1),
+            stood_still: Some(1),
         };
         let grid =
             PushGrid { axis: vec![-30.0, 0.0, 30.0], t_fall: vec![t_fall; 9], window_s: 10.0, command: [0.0; 3] };
@@ -343,6 +364,20 @@ mod tests {
         let row = &m.results[1].tracking[0];
         assert!(row.mae.is_nan() && row.mae_components[0].is_nan() && row.gait.air_time_s.is_nan());
         assert_eq!((row.mae_components[2], row.fell_at, row.mae_paper), (0.2, Some(1.5), 0.6));
+        assert_eq!((row.starts, row.falls, row.stood_still), (2, Some(1), Some(1)));
+
+        // Reports written before tracking ran from several starts still read: one start, a fall counted from
+        // `fell`, stand-stills unknown — and they do not merge with a protocol that has several.
+        let mut old: serde_json::Value = serde_json::from_slice(&std::fs::read(&ca).unwrap()).unwrap();
+        old["extent"].as_object_mut().unwrap().remove("tracking_starts");
+        for k in ["starts", "falls", "stood_still"] {
+            old["results"][0]["tracking"][0].as_object_mut().unwrap().remove(k);
+        }
+        report::write_json(&dir, "old.json", &old).unwrap();
+        let o: Ablation = serde_json::from_slice(&std::fs::read(dir.join("old.json")).unwrap()).unwrap();
+        let t = &o.results[0].tracking[0];
+        assert_eq!((o.extent.tracking_starts, t.starts, t.falls, t.stood_still, t.fall_count()), (1, 1, None, None, 1));
+        assert!(format!("{:#}", merge(&[c.clone(), dir.join("old.json")]).unwrap_err()).contains("another protocol"));
 
         let err = |files: &[PathBuf]| format!("{:#}", merge(files).unwrap_err());
         let quick = write("quick.json", Extent::quick(), vec![one("C", "c3.json", 7.0)]);

@@ -95,7 +95,15 @@ pub fn check(groups: &[Group]) -> Vec<Claim> {
 /// The bars for one C or C+A policy.
 pub fn policy_bars(r: &PolicyResults) -> Vec<Claim> {
     let who = format!("{} {}", label(&r.name), r.policy.display());
-    let falls: Vec<&str> = r.tracking.iter().filter(|t| t.fell).map(|t| t.key.as_str()).collect();
+    // "key (falls/starts)" for each command that fell, or stood still, from at least one start.
+    let count = |n: usize, t: &crate::eval::tracking::TrackingRow| format!("{} ({n}/{})", t.key, t.starts);
+    let falls: Vec<String> = r.tracking.iter().filter(|t| t.fell).map(|t| count(t.fall_count(), t)).collect();
+    let still: Option<Vec<String>> = r
+        .tracking
+        .iter()
+        .map(|t| t.stood_still.map(|n| (n > 0).then(|| count(n, t))))
+        .collect::<Option<Vec<_>>>()
+        .map(|v| v.into_iter().flatten().collect());
     let worst = r
         .tracking
         .iter()
@@ -113,6 +121,19 @@ pub fn policy_bars(r: &PolicyResults) -> Vec<Claim> {
             evidence: format!("worst {:.3} ({})", worst.1, worst.0),
         },
     ];
+    // Not one of the bars, but a policy that stands still on a command from some initial states fails its
+    // user as a fall would; reports written before starts were counted have no verdict here.
+    if let Some(still) = still {
+        out.push(Claim {
+            statement: format!("{who}: no start stands still on a tracking command"),
+            holds: Some(still.is_empty()),
+            evidence: if still.is_empty() {
+                "0 stand-stills".into()
+            } else {
+                format!("stood still on {}", still.join(", "))
+            },
+        });
+    }
     if let Some(g) = r.tracking.iter().find(|t| t.key == "walk_forward").map(|t| &t.gait) {
         let ok = g.air_time_s >= MIN_AIR_TIME_S && g.clearance_m >= MIN_CLEARANCE_M && g.steps_per_s <= MAX_STEPS_PER_S;
         out.push(Claim {
@@ -168,6 +189,9 @@ mod tests {
             fell,
             fell_at: None,
             gait: GaitStats { steps_per_s: 2.0, air_time_s: air, clearance_m: 0.035, ..Default::default() },
+            starts: 10,
+            falls: Some(usize::from(fell)),
+            stood_still: Some(0),
         };
         let grid = PushGrid { axis: vec![0.0], t_fall: vec![t_fall], window_s: 10.0, command: [0.0; 3] };
         PolicyResults {
@@ -210,6 +234,24 @@ mod tests {
         // The second C+A policy misses two bars: its worst component (0.2) and its air time (0.15 s).
         let bars: Vec<&Claim> = c.iter().filter(|x| x.statement.starts_with("C+A CA.json")).collect();
         assert_eq!(bars.iter().filter(|x| x.holds == Some(false)).count(), 2, "{bars:?}");
+        // Starts that fell or stood still are named with their counts; a report without stand-still counts has
+        // no verdict on them.
+        let mut bistable = r.clone();
+        bistable[1].tracking[1].stood_still = Some(4);
+        bistable[1].tracking[1].fell = true;
+        bistable[1].tracking[1].falls = Some(2);
+        let c = check(&group(&bistable));
+        let claim = |s: &str| c.iter().find(|x| x.statement.starts_with(s)).expect(s).clone();
+        let still = claim("C C.json: no start stands still");
+        assert_eq!((still.holds, still.evidence.as_str()), (Some(false), "stood still on rotate_cw (4/10)"));
+        assert_eq!(claim("C C.json: no fall").evidence, "fell on rotate_cw (2/10)");
+        assert_eq!(claim("C+A CA.json: no start stands still").holds, Some(true));
+        let stand_claims = |r: &[PolicyResults]| {
+            check(&group(r)).iter().filter(|x| x.statement.starts_with("C C.json: no start stands")).count()
+        };
+        assert_eq!(stand_claims(&bistable), 2, "one per C policy");
+        bistable[1].tracking[0].stood_still = None;
+        assert_eq!(stand_claims(&bistable), 1, "the first C's report has no count on walk_forward");
         // One seed per group: no sd, no verdict on the margin.
         let single = vec![policy("C", 8.0, [90.0, 40.0], 0.1, 0.25), policy("CA", 9.5, [95.0, 60.0], 0.1, 0.25)];
         let c = check(&group(&single));

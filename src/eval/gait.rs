@@ -14,7 +14,7 @@ use topa_env::TopaEnv;
 #[derive(Debug, Clone, Default, Serialize, serde::Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct GaitStats {
-    /// Observed time, s.
+    /// Observed time, s (summed over the initial states of a tracking command).
     #[serde(deserialize_with = "super::nan_json::f64")]
     pub seconds: f64,
     /// Touchdowns per second, per foot (mean of both feet).
@@ -94,6 +94,20 @@ impl GaitAccumulator {
             }
             self.contact[f] = Some(contact[f]);
         }
+    }
+
+    /// Adds the totals of another run (the same command from another initial state): the pooled statistics weigh
+    /// every step and every second alike. The other run's swing in progress is dropped, as at the end of a window.
+    pub fn absorb(&mut self, o: &GaitAccumulator) {
+        self.seconds += o.seconds;
+        self.steps += o.steps;
+        self.air_sum += o.air_sum;
+        self.clearance_sum += o.clearance_sum;
+        self.slip_sum += o.slip_sum;
+        self.stances += o.stances;
+        self.double += o.double;
+        self.height_sum += o.height_sum;
+        self.samples += o.samples;
     }
 
     pub fn finish(&self) -> GaitStats {

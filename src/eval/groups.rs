@@ -74,9 +74,17 @@ impl Group<'_> {
     pub fn noise(&self, level: usize) -> Stat {
         self.stat(|r| r.noise.get(level).map_or(f64::NAN, |n| n.success_pct))
     }
-    /// Tracking falls over all commands and policies of the group.
+    /// Tracking runs (command × start) over the group's policies.
+    pub fn tracking_runs(&self) -> usize {
+        self.members.iter().flat_map(|r| &r.tracking).map(|t| t.starts).sum()
+    }
+    /// Tracking runs that fell.
     pub fn tracking_falls(&self) -> usize {
-        self.members.iter().map(|r| r.tracking.iter().filter(|t| t.fell).count()).sum()
+        self.members.iter().flat_map(|r| &r.tracking).map(|t| t.fall_count()).sum()
+    }
+    /// Tracking runs that stood still; None when a report did not count them.
+    pub fn tracking_stand_stills(&self) -> Option<usize> {
+        self.members.iter().flat_map(|r| &r.tracking).map(|t| t.stood_still).sum()
     }
     /// The largest per-component whole-window MAE of any command, per policy.
     pub fn worst_component(&self) -> Stat {
@@ -102,8 +110,8 @@ pub fn headline_markdown(groups: &[Group], paper: &PaperTables) -> String {
     for i in 0..levels {
         let _ = write!(s, " noise level {} success (%) |", i + 1);
     }
-    s.push_str(" tracking falls | worst component MAE |\n|---|---:|---:|---:|");
-    s.push_str(&"---:|".repeat(levels + 2));
+    s.push_str(" tracking falls | tracking stand-stills | worst component MAE |\n|---|---:|---:|---:|");
+    s.push_str(&"---:|".repeat(levels + 3));
     s.push('\n');
     for g in groups {
         let p = paper.push_mean_t_fall.get(g.name).map(|x| format!("{x:.2}"));
@@ -119,14 +127,16 @@ pub fn headline_markdown(groups: &[Group], paper: &PaperTables) -> String {
             let p = paper.noise_success.get(g.name).and_then(|v| v.get(i)).map(|x| format!("{x:.0}"));
             let _ = write!(s, " {} |", paper_cell(g.noise(i).show(0), p));
         }
-        let cmds = g.members.iter().map(|r| r.tracking.len()).sum::<usize>();
-        let _ = writeln!(s, " {}/{} | {} |", g.tracking_falls(), cmds, g.worst_component().show(3));
+        let runs = g.tracking_runs();
+        let still = g.tracking_stand_stills().map_or("–".into(), |n| format!("{n}/{runs}"));
+        let _ = writeln!(s, " {}/{runs} | {still} | {} |", g.tracking_falls(), g.worst_component().show(3));
     }
     let _ = writeln!(
         s,
-        "\nmean ± sd over each group's policies (sample sd); cells: ours (paper). Tracking falls: runs of the six \
-         commands that fell, over all the group's policies; worst component MAE: the largest of the three \
-         per-component errors (whole window) over the six commands, per policy."
+        "\nmean ± sd over each group's policies (sample sd); cells: ours (paper). Tracking falls and stand-stills: \
+         runs (each of the six commands from each initial state) that fell, or whose mean velocity along the \
+         command stayed below a quarter of it, over all the group's policies; worst component MAE: the largest of \
+         the three per-component errors (whole window, mean over the starts) over the six commands, per policy."
     );
     s
 }
@@ -137,24 +147,27 @@ pub fn tracking_markdown(groups: &[Group], paper: &PaperTables) -> String {
     for (ci, (key, title, _)) in COMMANDS.iter().enumerate() {
         let _ = writeln!(s, "\n**{title}**\n");
         s.push_str(
-            "| Group | MAE v_x | MAE v_y | MAE w_z | MAE sum | falls | τ̄ (N·m) | θ̄_roll (rad) | θ̄_pitch (rad) |\n\
-             |---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+            "| Group | MAE v_x | MAE v_y | MAE w_z | MAE sum | falls | stood still | τ̄ (N·m) | θ̄_roll (rad) | θ̄_pitch (rad) |\n\
+             |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         );
         for g in groups {
             let row = |f: &dyn Fn(&super::tracking::TrackingRow) -> f64| g.stat(|r| f(&r.tracking[ci]));
             let p = paper.tracking.get(*key).and_then(|m| m.get(g.name));
             let pf =
                 |i: usize, d: usize| p.map(|p| format!("{:.d$}{}", p[i], if i == 0 && p[4] > 0.5 { "*" } else { "" }));
-            let falls = g.members.iter().filter(|r| r.tracking[ci].fell).count();
+            let rows = || g.members.iter().map(|r| &r.tracking[ci]);
+            let (runs, falls) =
+                (rows().map(|t| t.starts).sum::<usize>(), rows().map(|t| t.fall_count()).sum::<usize>());
+            let still =
+                rows().map(|t| t.stood_still).sum::<Option<usize>>().map_or("–".into(), |n| format!("{n}/{runs}"));
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {falls}/{} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {falls}/{runs} | {still} | {} | {} | {} |",
                 label(g.name),
                 row(&|t| t.mae_whole[0]).show(3),
                 row(&|t| t.mae_whole[1]).show(3),
                 row(&|t| t.mae_whole[2]).show(3),
                 paper_cell(row(&|t| t.mae_paper).show(2), pf(0, 2)),
-                g.members.len(),
                 paper_cell(row(&|t| t.mean_torque).show(1), pf(1, 2)),
                 paper_cell(row(&|t| t.mean_roll).show(2), pf(2, 2)),
                 paper_cell(row(&|t| t.mean_pitch).show(2), pf(3, 2)),
@@ -163,8 +176,9 @@ pub fn tracking_markdown(groups: &[Group], paper: &PaperTables) -> String {
     }
     let _ = writeln!(
         s,
-        "\nWhole window from the command's start, continuing after a fall (the paper-comparable definition); MAE \
-         sum = |v_x| + |v_y| + |w_z| errors, the paper's column (* there: fell). mean ± sd over the group."
+        "\nWhole window from the command's start, continuing after a fall (the paper-comparable definition), mean \
+         over each policy's starts; MAE sum = |v_x| + |v_y| + |w_z| errors, the paper's column (* there: fell). \
+         mean ± sd over the group; falls and stand-stills counted over the group's runs (policies × starts)."
     );
     s
 }
@@ -202,25 +216,27 @@ pub fn gait_markdown(groups: &[Group]) -> String {
 /// Every policy's headline numbers, one row each.
 pub fn per_policy_markdown(results: &[PolicyResults]) -> String {
     let mut s = String::from(
-        "| Group | policy | t_fall standing (s) | t_fall walking (s) | noise success (%) | tracking falls | worst component MAE | gait at 0.5 m/s: steps/s, air (s), clearance (cm) |\n\
-         |---|---|---:|---:|---|---:|---:|---|\n",
+        "| Group | policy | t_fall standing (s) | t_fall walking (s) | noise success (%) | tracking falls | stand-stills | worst component MAE | gait at 0.5 m/s: steps/s, air (s), clearance (cm) |\n\
+         |---|---|---:|---:|---|---:|---:|---:|---|\n",
     );
     for r in results {
         let noise: Vec<String> = r.noise.iter().map(|n| format!("{:.0}", n.success_pct)).collect();
         let fwd = r.tracking.iter().find(|t| t.key == "walk_forward").map(|t| &t.gait);
+        let runs = r.tracking.iter().map(|t| t.starts).sum::<usize>();
+        let still = r.tracking.iter().map(|t| t.stood_still).sum::<Option<usize>>();
+        let still = still.map_or("–".into(), |n| format!("{n}/{runs}"));
         let gait = fwd.map_or("–".into(), |g| {
             format!("{:.2}, {:.3}, {:.1}", g.steps_per_s, g.air_time_s, 100.0 * g.clearance_m)
         });
         let _ = writeln!(
             s,
-            "| {} | {} | {:.2} | {} | {} | {}/{} | {:.3} | {gait} |",
+            "| {} | {} | {:.2} | {} | {} | {}/{runs} | {still} | {:.3} | {gait} |",
             label(&r.name),
             r.policy.display(),
             r.push.mean_t_fall(),
             r.push_walking.as_ref().map_or("–".into(), |p| format!("{:.2}", p.mean_t_fall())),
             noise.join(" / "),
-            r.tracking.iter().filter(|t| t.fell).count(),
-            r.tracking.len(),
+            r.tracking.iter().map(|t| t.fall_count()).sum::<usize>(),
             worst_component(r),
         );
     }

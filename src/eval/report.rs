@@ -83,9 +83,9 @@ pub fn tracking_markdown(results: &[(&str, &[TrackingRow])], paper: Option<&Pape
         let _ = writeln!(s, "\n**{title}**\n");
         let _ = writeln!(
             s,
-            "| Policy | MAE v_x / v_y / w_z | v_x,y, w_z MAE (sum) | steady MAE (ours) | τ̄ (N·m) | θ̄_roll (rad) | θ̄_pitch (rad) |"
+            "| Policy | MAE v_x / v_y / w_z | v_x,y, w_z MAE (sum) | steady MAE (ours) | falls | stood still | τ̄ (N·m) | θ̄_roll (rad) | θ̄_pitch (rad) |"
         );
-        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|");
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|");
         for (name, rows) in results {
             let r = &rows[ci];
             let p = paper.and_then(|t| t.tracking.get(*key)).and_then(|m| m.get(*name));
@@ -94,13 +94,16 @@ pub fn tracking_markdown(results: &[(&str, &[TrackingRow])], paper: Option<&Pape
             let w = r.mae_whole;
             let _ = writeln!(
                 s,
-                "| {}{star} | {} / {} / {} | {} | {} | {} | {} | {} |",
+                "| {}{star} | {} / {} / {} | {} | {} | {}/{} | {} | {} | {} | {} |",
                 label(name),
                 fmt(w[0], 2),
                 fmt(w[1], 2),
                 fmt(w[2], 2),
                 with_paper(fmt(r.mae_paper, 2), p.map(|p| format!("{}{}", fmt(p[0], 2), pstar(p)))),
                 fmt(r.mae, 3),
+                r.fall_count(),
+                r.starts,
+                r.stood_still.map_or("–".into(), |n| format!("{n}/{}", r.starts)),
                 with_paper(fmt(r.mean_torque, 2), p.map(|p| fmt(p[1], 2))),
                 with_paper(fmt(r.mean_roll, 2), p.map(|p| fmt(p[2], 2))),
                 with_paper(fmt(r.mean_pitch, 2), p.map(|p| fmt(p[3], 2))),
@@ -109,9 +112,10 @@ pub fn tracking_markdown(results: &[(&str, &[TrackingRow])], paper: Option<&Pape
     }
     let _ = writeln!(
         s,
-        "\n\\* fell. Cells: ours (paper). Per-component MAE, their sum, τ̄ and θ̄ over the whole window from the \
-         command's start, continuing after a fall (the paper-comparable definition); steady MAE: the mean of the \
-         three components after 2 s, up to a fall."
+        "\n\\* fell (from at least one start). Cells: ours (paper). Per-component MAE, their sum, τ̄ and θ̄ over the \
+         whole window from the command's start, continuing after a fall (the paper-comparable definition); steady \
+         MAE: the mean of the three components after 2 s, up to a fall; each the mean over the command's starts \
+         (initial states). Stood still: starts whose mean velocity along the command stayed below a quarter of it."
     );
     s
 }
@@ -193,13 +197,13 @@ pub fn tracking_csv(rows: &[TrackingRow]) -> String {
     let mut s = String::from(
         "command,v_x,v_y,w_z,mae_vx,mae_vy,mae_wz,mae_paper,mae_steady,mae_steady_vx,mae_steady_vy,mae_steady_wz,\
          mean_torque,mean_roll,mean_pitch,fell,fell_at_s,steps_per_s,air_time_s,clearance_m,slip_per_stance_m,\
-         double_support,base_height_m\n",
+         double_support,base_height_m,starts,falls,stood_still\n",
     );
     for r in rows {
         let (w, c, g) = (r.mae_whole, r.mae_components, &r.gait);
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.key,
             r.command[0],
             r.command[1],
@@ -222,7 +226,10 @@ pub fn tracking_csv(rows: &[TrackingRow]) -> String {
             g.clearance_m,
             g.slip_per_stance_m,
             g.double_support,
-            g.base_height_m
+            g.base_height_m,
+            r.starts,
+            r.fall_count(),
+            r.stood_still.map_or(String::new(), |n| n.to_string())
         );
     }
     s

@@ -14,6 +14,10 @@
 //!   acceleration, stopping at a fall — the steady-state tracking of a robot that walks.
 //!
 //! Velocities are in the torso frame; τ̄ = mean over time of Σ_motors |τ| (N·m); roll, pitch signed means (rad).
+//!
+//! Each command runs from `starts` initial states (env `s·6 + c` for start `s` of command `c`, so start 0 is the
+//! one-reset run): a policy with two behaviours from rest — walking off or standing still on a turn — makes a
+//! single reset a coin flip. A row reports the mean over the starts, the falls and the starts that stood still.
 
 use anyhow::Result;
 use serde::Serialize;
@@ -58,18 +62,44 @@ pub struct TrackingRow {
     pub mean_roll: f64,
     #[serde(deserialize_with = "super::nan_json::f64")]
     pub mean_pitch: f64,
+    /// Whether any start fell.
     pub fell: bool,
-    /// Seconds into the window when it fell.
+    /// Seconds into the window of the earliest fall.
     pub fell_at: Option<f64>,
-    /// The gait after the transient, up to a fall.
+    /// The gait after the transient, up to a fall, pooled over the starts.
     pub gait: GaitStats,
+    /// Initial states the command ran from (1 in reports written before starts were counted).
+    #[serde(default = "one")]
+    pub starts: usize,
+    /// Starts that fell (None in older reports: see `fell`).
+    #[serde(default)]
+    pub falls: Option<usize>,
+    /// Starts that stood still: the mean velocity along the command, after the transient and up to a fall, below
+    /// `STAND_STILL_SHARE` of the command (None in older reports).
+    #[serde(default)]
+    pub stood_still: Option<usize>,
 }
+
+fn one() -> usize {
+    1
+}
+
+impl TrackingRow {
+    /// Starts that fell, also for reports that only say whether one did.
+    pub fn fall_count(&self) -> usize {
+        self.falls.unwrap_or(usize::from(self.fell))
+    }
+}
+
+/// A start "stands still" when its mean velocity along the command stays below this share of the command.
+pub const STAND_STILL_SHARE: f64 = 0.25;
 
 /// Running sums of the tracking metrics.
 #[derive(Debug, Clone, Default)]
 pub struct TrackingAccumulator {
     n: usize,
     abs_err: [f64; 3],
+    velocity: [f64; 3],
     torque: f64,
     roll: f64,
     pitch: f64,
@@ -80,6 +110,8 @@ pub struct TrackingAccumulator {
 pub struct TrackingMeans {
     /// Mean |error| of v_x, v_y, w_z.
     pub components: [f64; 3],
+    /// Mean measured v_x, v_y, w_z.
+    pub velocity: [f64; 3],
     pub torque: f64,
     pub roll: f64,
     pub pitch: f64,
@@ -89,6 +121,15 @@ impl TrackingMeans {
     /// The mean of the three component errors (our MAE).
     pub fn mae(&self) -> f64 {
         self.components.iter().sum::<f64>() / 3.0
+    }
+
+    /// Whether the robot stood still instead of following `command`: its mean velocity projected on the command
+    /// is below `STAND_STILL_SHARE` of it. Never for a zero command or an empty window (a fall before the transient
+    /// ended is a fall, not a stand-still).
+    pub fn stood_still(&self, command: [f64; 3]) -> bool {
+        let cc: f64 = command.iter().map(|c| c * c).sum();
+        let vc: f64 = command.iter().zip(&self.velocity).map(|(c, v)| c * v).sum();
+        cc > 1e-12 && vc.is_finite() && vc < STAND_STILL_SHARE * cc
     }
 }
 
@@ -106,6 +147,7 @@ impl TrackingAccumulator {
         let measured = [lin_vel[0], lin_vel[1], ang_vel[2]];
         for i in 0..3 {
             self.abs_err[i] += (measured[i] - command[i]).abs();
+            self.velocity[i] += measured[i];
         }
         self.torque += motor_torque.iter().map(|t| t.abs()).sum::<f64>();
         self.roll += roll;
@@ -120,10 +162,12 @@ impl TrackingAccumulator {
     pub fn finish(&self) -> TrackingMeans {
         let n = self.n as f64;
         if self.n == 0 {
-            return TrackingMeans { components: [f64::NAN; 3], torque: f64::NAN, roll: f64::NAN, pitch: f64::NAN };
+            let nan = f64::NAN;
+            return TrackingMeans { components: [nan; 3], velocity: [nan; 3], torque: nan, roll: nan, pitch: nan };
         }
         TrackingMeans {
             components: self.abs_err.map(|e| e / n),
+            velocity: self.velocity.map(|v| v / n),
             torque: self.torque / n,
             roll: self.roll / n,
             pitch: self.pitch / n,
@@ -156,46 +200,86 @@ impl Experiment for Tracking {
     }
 }
 
-/// Runs the six commands (one env each, in parallel) for `window_s` each.
+/// One start of one command: its two windows' means, its gait and when it fell.
+#[derive(Debug, Clone)]
+pub struct StartResult {
+    /// After the transient, up to a fall.
+    pub ours: TrackingMeans,
+    /// The whole window, continuing after a fall.
+    pub whole: TrackingMeans,
+    pub gait: GaitAccumulator,
+    pub fell_at: Option<f64>,
+}
+
+/// A command's row from its starts: the means over the starts (each start weighs the same), the pooled gait, the
+/// falls and the stand-stills.
+pub fn combine(key: &str, command: [f64; 3], starts: &[StartResult]) -> TrackingRow {
+    assert!(!starts.is_empty(), "a tracking row needs at least one start");
+    let n = starts.len() as f64;
+    let mean = |f: &dyn Fn(&StartResult) -> f64| starts.iter().map(f).sum::<f64>() / n;
+    let ours: [f64; 3] = std::array::from_fn(|i| mean(&|r| r.ours.components[i]));
+    let whole: [f64; 3] = std::array::from_fn(|i| mean(&|r| r.whole.components[i]));
+    let mut gait = GaitAccumulator::default();
+    for r in starts {
+        gait.absorb(&r.gait);
+    }
+    let fell_at = starts.iter().filter_map(|r| r.fell_at).reduce(f64::min);
+    TrackingRow {
+        key: key.to_string(),
+        command,
+        mae: ours.iter().sum::<f64>() / 3.0,
+        mae_components: ours,
+        mae_whole: whole,
+        mae_paper: whole.iter().sum(),
+        mean_torque: mean(&|r| r.whole.torque),
+        mean_roll: mean(&|r| r.whole.roll),
+        mean_pitch: mean(&|r| r.whole.pitch),
+        fell: fell_at.is_some(),
+        fell_at,
+        gait: gait.finish(),
+        starts: starts.len(),
+        falls: Some(starts.iter().filter(|r| r.fell_at.is_some()).count()),
+        stood_still: Some(starts.iter().filter(|r| r.ours.stood_still(command)).count()),
+    }
+}
+
+/// Runs the six commands, each from `starts` initial states (all in one parallel batch), for `window_s` each.
 pub fn run(
     runner: &mut PolicyRunner,
     settings: &EvalSettings,
     window_s: f64,
     transient_s: f64,
+    starts: usize,
 ) -> Result<Vec<TrackingRow>> {
+    anyhow::ensure!(starts >= 1, "tracking needs at least one start per command (--tracking-starts ≥ 1)");
     let mut cfg = runner.eval_config(settings)?;
     cfg.termination.enabled = false; // the robot stays on the floor after a fall and the window goes on
-    let commands: Vec<[f64; 3]> = COMMANDS.iter().map(|c| c.2).collect();
+    let k = COMMANDS.len();
+    let commands: Vec<[f64; 3]> = (0..starts * k).map(|i| COMMANDS[i % k].2).collect();
     let n = commands.len();
     let mut exp = Tracking {
-        commands: commands.clone(),
+        commands,
         transient_s,
         dt: cfg.policy_dt(),
         ours: vec![TrackingAccumulator::default(); n],
         whole: vec![TrackingAccumulator::default(); n],
         gait: vec![GaitAccumulator::default(); n],
     };
-    let fell = run_batch(runner, &cfg, settings, n, window_s, &mut exp, "")?;
+    let fell = run_batch(runner, &cfg, settings, n, window_s, &mut exp, "tracking")?;
     Ok(COMMANDS
         .iter()
         .enumerate()
-        .map(|(i, (key, _, cmd))| {
-            let ours = exp.ours[i].finish();
-            let whole = exp.whole[i].finish();
-            TrackingRow {
-                key: key.to_string(),
-                command: *cmd,
-                mae: ours.mae(),
-                mae_components: ours.components,
-                mae_whole: whole.components,
-                mae_paper: whole.components.iter().sum(),
-                mean_torque: whole.torque,
-                mean_roll: whole.roll,
-                mean_pitch: whole.pitch,
-                fell: fell[i].is_some(),
-                fell_at: fell[i],
-                gait: exp.gait[i].finish(),
-            }
+        .map(|(c, (key, _, cmd))| {
+            let results: Vec<StartResult> = (0..starts)
+                .map(|s| s * k + c)
+                .map(|i| StartResult {
+                    ours: exp.ours[i].finish(),
+                    whole: exp.whole[i].finish(),
+                    gait: exp.gait[i].clone(),
+                    fell_at: fell[i],
+                })
+                .collect();
+            combine(key, *cmd, &results)
         })
         .collect())
 }
