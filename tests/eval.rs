@@ -131,6 +131,13 @@ fn a_commands_row_is_the_mean_over_its_starts_with_falls_and_stand_stills_counte
     let one = tracking::combine("rotate_ccw", [0.0, 0.0, 1.0], &starts[..1]);
     assert_eq!((one.falls, one.stood_still, one.fell), (Some(0), Some(0), false));
     assert!((one.mae_whole[2] - 0.1).abs() < 1e-12);
+    // Counted over several rows in runs (command × start); a row from a report that did not count stand-stills
+    // leaves them unknown, its fall counted from `fell`.
+    let n = tracking::RunCounts::of([&row, &one]);
+    assert_eq!((n.falls_cell(), n.still_cell()), ("1/4".to_string(), "1/4".to_string()));
+    let old = tracking::TrackingRow { starts: 1, falls: None, stood_still: None, ..row.clone() };
+    let n = tracking::RunCounts::of([&row, &old]);
+    assert_eq!((n.runs, n.falls, n.still_cell()), (4, 2, "–".to_string()));
 }
 
 #[test]

@@ -21,7 +21,7 @@ pub struct Extent {
     pub tracking_window_s: f64,
     pub tracking_transient_s: f64,
     /// Initial states each tracking command runs from (1 in reports written before there was a choice).
-    #[serde(default = "one")]
+    #[serde(default = "tracking::one")]
     pub tracking_starts: usize,
     pub push_range_n: f64,
     pub push_step_n: f64,
@@ -76,10 +76,6 @@ impl Extent {
             self.push_range_n, self.noise_runs, self.noise_seconds, self.tracking_starts
         )
     }
-}
-
-fn one() -> usize {
-    1
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]

@@ -8,7 +8,7 @@ use serde::Serialize;
 use super::ablate::PolicyResults;
 use super::push::PushGrid;
 use super::report::{label, PaperTables};
-use super::tracking::COMMANDS;
+use super::tracking::{RunCounts, COMMANDS};
 
 /// Mean and sample standard deviation (n − 1) of the finite values among `xs` (a policy that never steps has no
 /// air time: it is left out of that mean, not counted as 0); sd is 0 for a single value.
@@ -74,17 +74,9 @@ impl Group<'_> {
     pub fn noise(&self, level: usize) -> Stat {
         self.stat(|r| r.noise.get(level).map_or(f64::NAN, |n| n.success_pct))
     }
-    /// Tracking runs (command × start) over the group's policies.
-    pub fn tracking_runs(&self) -> usize {
-        self.members.iter().flat_map(|r| &r.tracking).map(|t| t.starts).sum()
-    }
-    /// Tracking runs that fell.
-    pub fn tracking_falls(&self) -> usize {
-        self.members.iter().flat_map(|r| &r.tracking).map(|t| t.fall_count()).sum()
-    }
-    /// Tracking runs that stood still; None when a report did not count them.
-    pub fn tracking_stand_stills(&self) -> Option<usize> {
-        self.members.iter().flat_map(|r| &r.tracking).map(|t| t.stood_still).sum()
+    /// Tracking runs, falls and stand-stills over all commands and policies of the group.
+    pub fn tracking_counts(&self) -> RunCounts {
+        RunCounts::of(self.members.iter().flat_map(|r| &r.tracking))
     }
     /// The largest per-component whole-window MAE of any command, per policy.
     pub fn worst_component(&self) -> Stat {
@@ -127,9 +119,8 @@ pub fn headline_markdown(groups: &[Group], paper: &PaperTables) -> String {
             let p = paper.noise_success.get(g.name).and_then(|v| v.get(i)).map(|x| format!("{x:.0}"));
             let _ = write!(s, " {} |", paper_cell(g.noise(i).show(0), p));
         }
-        let runs = g.tracking_runs();
-        let still = g.tracking_stand_stills().map_or("–".into(), |n| format!("{n}/{runs}"));
-        let _ = writeln!(s, " {}/{runs} | {still} | {} |", g.tracking_falls(), g.worst_component().show(3));
+        let n = g.tracking_counts();
+        let _ = writeln!(s, " {} | {} | {} |", n.falls_cell(), n.still_cell(), g.worst_component().show(3));
     }
     let _ = writeln!(
         s,
@@ -155,19 +146,17 @@ pub fn tracking_markdown(groups: &[Group], paper: &PaperTables) -> String {
             let p = paper.tracking.get(*key).and_then(|m| m.get(g.name));
             let pf =
                 |i: usize, d: usize| p.map(|p| format!("{:.d$}{}", p[i], if i == 0 && p[4] > 0.5 { "*" } else { "" }));
-            let rows = || g.members.iter().map(|r| &r.tracking[ci]);
-            let (runs, falls) =
-                (rows().map(|t| t.starts).sum::<usize>(), rows().map(|t| t.fall_count()).sum::<usize>());
-            let still =
-                rows().map(|t| t.stood_still).sum::<Option<usize>>().map_or("–".into(), |n| format!("{n}/{runs}"));
+            let n = RunCounts::of(g.members.iter().map(|r| &r.tracking[ci]));
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {falls}/{runs} | {still} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 label(g.name),
                 row(&|t| t.mae_whole[0]).show(3),
                 row(&|t| t.mae_whole[1]).show(3),
                 row(&|t| t.mae_whole[2]).show(3),
                 paper_cell(row(&|t| t.mae_paper).show(2), pf(0, 2)),
+                n.falls_cell(),
+                n.still_cell(),
                 paper_cell(row(&|t| t.mean_torque).show(1), pf(1, 2)),
                 paper_cell(row(&|t| t.mean_roll).show(2), pf(2, 2)),
                 paper_cell(row(&|t| t.mean_pitch).show(2), pf(3, 2)),
@@ -222,21 +211,20 @@ pub fn per_policy_markdown(results: &[PolicyResults]) -> String {
     for r in results {
         let noise: Vec<String> = r.noise.iter().map(|n| format!("{:.0}", n.success_pct)).collect();
         let fwd = r.tracking.iter().find(|t| t.key == "walk_forward").map(|t| &t.gait);
-        let runs = r.tracking.iter().map(|t| t.starts).sum::<usize>();
-        let still = r.tracking.iter().map(|t| t.stood_still).sum::<Option<usize>>();
-        let still = still.map_or("–".into(), |n| format!("{n}/{runs}"));
+        let n = RunCounts::of(&r.tracking);
         let gait = fwd.map_or("–".into(), |g| {
             format!("{:.2}, {:.3}, {:.1}", g.steps_per_s, g.air_time_s, 100.0 * g.clearance_m)
         });
         let _ = writeln!(
             s,
-            "| {} | {} | {:.2} | {} | {} | {}/{runs} | {still} | {:.3} | {gait} |",
+            "| {} | {} | {:.2} | {} | {} | {} | {} | {:.3} | {gait} |",
             label(&r.name),
             r.policy.display(),
             r.push.mean_t_fall(),
             r.push_walking.as_ref().map_or("–".into(), |p| format!("{:.2}", p.mean_t_fall())),
             noise.join(" / "),
-            r.tracking.iter().map(|t| t.fall_count()).sum::<usize>(),
+            n.falls_cell(),
+            n.still_cell(),
             worst_component(r),
         );
     }

@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use super::noise::NoiseRow;
 use super::push::PushGrid;
-use super::tracking::{TrackingRow, COMMANDS};
+use super::tracking::{RunCounts, TrackingRow, COMMANDS};
 
 const PAPER_TOML: &str = include_str!("../../data/paper_tables.toml");
 
@@ -92,18 +92,18 @@ pub fn tracking_markdown(results: &[(&str, &[TrackingRow])], paper: Option<&Pape
             let star = if r.fell { "*" } else { "" };
             let pstar = |p: &[f64; 5]| if p[4] > 0.5 { "*" } else { "" };
             let w = r.mae_whole;
+            let n = RunCounts::of([r]);
             let _ = writeln!(
                 s,
-                "| {}{star} | {} / {} / {} | {} | {} | {}/{} | {} | {} | {} | {} |",
+                "| {}{star} | {} / {} / {} | {} | {} | {} | {} | {} | {} | {} |",
                 label(name),
                 fmt(w[0], 2),
                 fmt(w[1], 2),
                 fmt(w[2], 2),
                 with_paper(fmt(r.mae_paper, 2), p.map(|p| format!("{}{}", fmt(p[0], 2), pstar(p)))),
                 fmt(r.mae, 3),
-                r.fall_count(),
-                r.starts,
-                r.stood_still.map_or("–".into(), |n| format!("{n}/{}", r.starts)),
+                n.falls_cell(),
+                n.still_cell(),
                 with_paper(fmt(r.mean_torque, 2), p.map(|p| fmt(p[1], 2))),
                 with_paper(fmt(r.mean_roll, 2), p.map(|p| fmt(p[2], 2))),
                 with_paper(fmt(r.mean_pitch, 2), p.map(|p| fmt(p[3], 2))),

@@ -80,7 +80,8 @@ pub struct TrackingRow {
     pub stood_still: Option<usize>,
 }
 
-fn one() -> usize {
+/// Serde default of counts absent from older reports (one start each).
+pub(super) fn one() -> usize {
     1
 }
 
@@ -88,6 +89,36 @@ impl TrackingRow {
     /// Starts that fell, also for reports that only say whether one did.
     pub fn fall_count(&self) -> usize {
         self.falls.unwrap_or(usize::from(self.fell))
+    }
+}
+
+/// Falls and stand-stills over a set of tracking rows (one command's, a policy's, a group's), counted in runs:
+/// each command from each start.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunCounts {
+    pub runs: usize,
+    pub falls: usize,
+    /// None when a report among the rows did not count them.
+    pub stood_still: Option<usize>,
+}
+
+impl RunCounts {
+    pub fn of<'a>(rows: impl IntoIterator<Item = &'a TrackingRow>) -> Self {
+        let mut c = RunCounts { runs: 0, falls: 0, stood_still: Some(0) };
+        for t in rows {
+            c.runs += t.starts;
+            c.falls += t.fall_count();
+            c.stood_still = c.stood_still.zip(t.stood_still).map(|(a, b)| a + b);
+        }
+        c
+    }
+    /// "falls/runs".
+    pub fn falls_cell(&self) -> String {
+        format!("{}/{}", self.falls, self.runs)
+    }
+    /// "stand-stills/runs", or "–" where they were not counted.
+    pub fn still_cell(&self) -> String {
+        self.stood_still.map_or("–".into(), |n| format!("{n}/{}", self.runs))
     }
 }
 
