@@ -110,6 +110,9 @@ pub struct AdversaryBounds {
     pub max_foot_force: f64,
     /// Bound of each perturbation value of tasks without their own bounds (the cart-pole's push on the pole, N).
     pub generic_bound: f64,
+    /// How long the command offset is held, s: 0 lets it change at every policy step (50 Hz); above 0 it takes
+    /// the adversary's value only every `command_hold_s` of an episode (an operator's command changes, not jitter).
+    pub command_hold_s: f64,
 }
 
 impl Default for AdversaryBounds {
@@ -119,6 +122,7 @@ impl Default for AdversaryBounds {
             max_gravity_tilt: 0.1,
             max_foot_force: 20.0,
             generic_bound: 1.0,
+            command_hold_s: 0.0,
         }
     }
 }
@@ -484,6 +488,19 @@ impl EnvConfig {
             )));
         }
         check_positive("termination.max_tilt", self.termination.max_tilt)?;
+        let a = &self.adversary;
+        for (name, v) in [
+            ("adversary.max_command_offset[0]", a.max_command_offset[0]),
+            ("adversary.max_command_offset[1]", a.max_command_offset[1]),
+            ("adversary.max_command_offset[2]", a.max_command_offset[2]),
+            ("adversary.max_gravity_tilt", a.max_gravity_tilt),
+            ("adversary.max_foot_force", a.max_foot_force),
+            ("adversary.command_hold_s", a.command_hold_s),
+        ] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err(EnvError::Config(format!("{name} must be ≥ 0, got {v}")));
+            }
+        }
         self.sim2sim.validate().map_err(EnvError::Config)?;
         Ok(())
     }

@@ -357,3 +357,45 @@ fn snapshot_restore_under_the_training_preset_and_attack() {
         assert!(diff.is_none(), "step {k}: observation {diff:?} differs after the restore");
     }
 }
+
+/// The adversary's command offset, held (`command_hold_s`): the command the policy sees and is rewarded on takes
+/// the adversary's new value only at the hold's boundaries, while its foot forces change at every step; without a
+/// hold the command follows every step. A negative hold is refused with its key named.
+#[test]
+fn a_held_command_offset_changes_only_at_the_hold_boundaries() {
+    let observe = |hold: f64| {
+        let mut cfg = quiet(ModelKind::Closed);
+        cfg.adversary.command_hold_s = hold;
+        let mut e = env(cfg, 5);
+        e.set_command_override(Some([0.2, 0.0, 0.0]));
+        let mut obs = vec![0.0; OBS_DIM];
+        e.reset(&mut obs).unwrap();
+        let mut seen = vec![];
+        for k in 0..12 {
+            // A new offset and a new foot force at every step.
+            let mut p = [0.0f32; 12];
+            p[0] = 0.01 * (k + 1) as f32;
+            p[8] = k as f32;
+            e.set_perturbation(&p);
+            assert_eq!(e.perturbation().foot_force[0][2], k as f64, "foot forces are never held");
+            seen.push(e.command()[0]);
+            e.step(&[0.0; 10], &mut obs);
+            assert_eq!(obs[OBS_COMMAND] as f64, e.command()[0] as f32 as f64);
+        }
+        seen
+    };
+    let free = observe(0.0);
+    for (k, c) in free.iter().enumerate() {
+        assert!((c - (0.2 + 0.01 * (k + 1) as f64)).abs() < 1e-6, "step {k}: {c}");
+    }
+    // 0.1 s = 5 policy steps at 50 Hz: the offsets of steps 0, 5 and 10 are taken, the rest ignored.
+    let held = observe(0.1);
+    for (k, c) in held.iter().enumerate() {
+        let taken = k - k % 5;
+        assert!((c - (0.2 + 0.01 * (taken + 1) as f64)).abs() < 1e-6, "step {k}: {c}");
+    }
+    let mut bad = quiet(ModelKind::Closed);
+    bad.adversary.command_hold_s = -0.5;
+    let err = bad.validate().unwrap_err().to_string();
+    assert!(err.contains("adversary.command_hold_s"), "{err}");
+}

@@ -508,9 +508,15 @@ impl Task for TopaEnv {
         crate::perturb::channels(&self.cfg.adversary)
     }
     fn set_perturbation(&mut self, p: &[f32]) {
-        let torso = self.perturbation.torso_force_local;
+        let held = self.perturbation;
         self.perturbation = Perturbation::from_adversary(p);
-        self.perturbation.torso_force_local = torso;
+        self.perturbation.torso_force_local = held.torso_force_local;
+        // A held command offset changes only at the hold's boundaries, counted from the episode's start (so a
+        // snapshot needs nothing beyond the offset itself).
+        let hold = self.cfg.adversary.command_hold_s;
+        if hold > 0.0 && !self.step_count.is_multiple_of(self.steps_of(hold)) {
+            self.perturbation.command_offset = held.command_offset;
+        }
     }
 
     fn take_fatal(&mut self) -> Option<EnvError> {
