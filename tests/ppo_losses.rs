@@ -238,10 +238,12 @@ fn unknown_or_invalid_config_keys_are_clear_errors() {
     assert_eq!(ok.ppo.learning_rate, 3e-5);
     let (_, cpu_env) =
         load_config(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/cpu.toml"))).unwrap();
-    // The CPU preset keeps the paper's reward weights; only the air-time term (its form, target and weight) and
-    // our swing-height term (weight 0 in the paper) differ (README, "Training").
+    // The CPU preset keeps the paper's reward weights; only the air-time term (its form, target and weight), our
+    // swing-height term (weight 0 in the paper) and the hip-yaw kernel's width (a σ the paper does not give) differ
+    // (README, "Training").
     let mut cpu_rewards = cpu_env.rewards.clone();
     let paper = &ok_env.rewards;
+    cpu_rewards.sigma_yaw = paper.sigma_yaw;
     (cpu_rewards.air_time_form, cpu_rewards.air_time_target, cpu_rewards.feet_air_time) =
         (paper.air_time_form, paper.air_time_target, paper.feet_air_time);
     assert_eq!(paper.feet_clearance, 0.0, "the paper's table has no clearance term");
