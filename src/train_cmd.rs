@@ -244,6 +244,12 @@ pub fn run(args: TrainArgs) -> Result<()> {
             cfg.run.threads = th;
         }
         if let Some(n) = args.iterations {
+            if args.adversary {
+                bail!(
+                    "--iterations sets a plain run's length; an adversary run's length is its [adversary] schedule \
+                     (phase1_policy_iters + cycles × (phase2_adversary_iters + phase3_policy_iters)): change those"
+                );
+            }
             cfg.run.iterations = n;
         }
         cfg.validate().map_err(anyhow::Error::msg)?;

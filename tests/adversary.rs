@@ -142,6 +142,14 @@ fn a_topa_adversary_run_resumed_anywhere_ends_with_the_straight_runs_policy() {
     };
     let straight = dir.join("straight");
     let (cfg_s, straight_s) = (cfg.to_str().unwrap(), straight.to_str().unwrap());
+    // An adversary run's length is its schedule: --iterations, which would be ignored, is refused with the fix.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_topa"))
+        .args(["train", "--config", cfg_s, "--adversary", "--iterations", "3", "--quiet", "--out", straight_s])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("[adversary] schedule"), "{err}");
+    assert!(!straight.exists(), "a refused run writes nothing");
     topa(&["train", "--config", cfg_s, "--adversary", "--threads", "1", "--quiet", "--out", straight_s]);
     let want = std::fs::read(straight.join("policy.safetensors")).unwrap();
     // Completed iterations 1–2: phase 1; 3–5: phase 2; 6–8: phase 3.
