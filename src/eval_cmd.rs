@@ -237,13 +237,9 @@ pub fn merge_ablations(files: &[PathBuf], c: Common) -> Result<()> {
 }
 
 fn report_ablation(a: &ablate::Ablation, c: &Common) -> Result<()> {
-    let extent = &a.extent;
     ablate::write(a, &c.out)?;
     if c.json {
         return print_json(a);
-    }
-    if *extent != Extent::full() {
-        println!("({}; --full for the paper's 13×13 grid to ±30 N and 100 runs)\n", extent.describe());
     }
     println!("{}", ablate::markdown(a)?);
     println!("results: {} (ablation.md, ablation.json, CSVs, heatmaps.png/svg)", c.out.display());

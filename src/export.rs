@@ -231,11 +231,14 @@ pub fn build(runner: &PolicyRunner, source: &str, motor_targets: bool) -> Result
     })
 }
 
-/// Writes the ONNX model of the policy at `policy_path` to `out` (atomically).
-pub fn export(policy_path: &Path, out: &Path, motor_targets: bool) -> Result<()> {
+/// Writes the ONNX model of the policy at `policy_path` to `out` (atomically); returns the robot's observation
+/// and motor counts, the graph's input and output widths.
+pub fn export(policy_path: &Path, out: &Path, motor_targets: bool) -> Result<(usize, usize)> {
     let runner = PolicyRunner::load(policy_path, "export")?;
     let model = build(&runner, &policy_path.display().to_string(), motor_targets)?;
-    trainer::tensorfile::write_atomic(out, &model.encode_to_vec())
+    trainer::tensorfile::write_atomic(out, &model.encode_to_vec())?;
+    let layout = runner.layout();
+    Ok((layout.dim(), layout.n_motors))
 }
 
 /// Reads an ONNX file written by `export`, refusing anything else with one clear error.

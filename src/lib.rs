@@ -3,6 +3,8 @@
 //! The crates below it: `mujoco-sys` (MuJoCo 2.2), `topa-env` (robot, env, VecEnv), `trainer` (PPO, adversary).
 
 pub mod bench;
+pub mod cli;
+pub mod config_reference;
 pub mod eval;
 pub mod eval_cmd;
 pub mod export;

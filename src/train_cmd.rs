@@ -120,15 +120,22 @@ fn machine() -> String {
     format!("{} × {cpu}", std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
-/// Exports the current policy as `<out>/policy.{safetensors,json}`.
+/// `cfg` with its `[env]` table resolved: every key of the task's config, the defaults included, so a record of
+/// the run says exactly what it ran with (and keeps saying it when a later build changes a default).
+pub fn with_resolved_env(cfg: &TrainConfig) -> Result<TrainConfig> {
+    let mut cfg = cfg.clone();
+    cfg.env = EnvConfig::from_table(&cfg.env)?.to_table();
+    Ok(cfg)
+}
+
+/// Exports the current policy as `<out>/policy.{safetensors,json}`; its provenance holds the full resolved config.
 pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> {
-    let cfg = &t.cfg;
+    let cfg = &with_resolved_env(&t.cfg)?;
     let env = EnvConfig::from_table(&cfg.env)?;
     let meta = PolicyMeta {
         format: policy_file::FORMAT.into(),
         version: policy_file::VERSION,
         robot: (env.task == TaskKind::Topa).then(|| env.robot.clone()),
-        model: None,
         obs_dim: t.env.obs_dim(),
         action_dim: t.env.action_dim(),
         hidden: cfg.network.actor_hidden.clone(),
@@ -198,7 +205,9 @@ pub fn run(args: TrainArgs) -> Result<()> {
         }
         let side_path = checkpoint::latest(&dir.join("checkpoints"))?;
         let (side, loaded) = checkpoint::read_sidecar(&side_path)?;
-        let mut cfg = side.config.clone();
+        // Checkpoints of earlier builds hold the `[env]` table as written: resolved now, the run keeps the
+        // defaults it was started with in the checkpoints it writes from here on.
+        let mut cfg = with_resolved_env(&side.config)?;
         if let Some(th) = args.threads {
             cfg.run.threads = th;
         }
@@ -253,6 +262,8 @@ pub fn run(args: TrainArgs) -> Result<()> {
             cfg.run.iterations = n;
         }
         cfg.validate().map_err(anyhow::Error::msg)?;
+        // The run's config.toml, checkpoints and policy record every task key, not only the preset's.
+        let cfg = with_resolved_env(&cfg)?;
         let env_cfg = EnvConfig::from_table(&cfg.env)?;
         trainer::nn::init_threads(crate::resolve_threads(cfg.run.threads))?;
         let out = args.out.clone().unwrap_or_else(|| {

@@ -38,7 +38,6 @@ fn constant_policy(dir: &Path, name: &str, model: ModelKind, action: [f32; N_MOT
         format: policy_file::FORMAT.into(),
         version: policy_file::VERSION,
         robot: Some(model.spec_path().into()),
-        model: None,
         obs_dim: 42,
         action_dim: 10,
         hidden: vec![8],
@@ -351,7 +350,7 @@ fn mcap_recording_reads_back_with_the_expected_channels() {
 
 #[test]
 fn the_bundled_closed_chain_policy_takes_real_steps() {
-    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C.json"));
+    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C/seed1.json"));
     let mut r = PolicyRunner::load(path, "C").unwrap();
     let rows = tracking::run(&mut r, &EvalSettings::default(), 6.0, 2.0, 2).unwrap();
     for row in &rows {

@@ -23,7 +23,7 @@ fn tempdir(name: &str) -> PathBuf {
 
 /// 500 observations of the C policy walking under changing commands, then 500 random ones.
 fn observations() -> Vec<f32> {
-    let mut runner = PolicyRunner::load(&policy("C"), "C").unwrap();
+    let mut runner = PolicyRunner::load(&policy("C/seed1"), "C").unwrap();
     let cfg = runner.eval_config(&EvalSettings::default()).unwrap();
     let mut env = TopaEnv::new(assets::load_model(ModelKind::Closed).unwrap(), std::sync::Arc::new(cfg), 1, 0).unwrap();
     let mut obs = vec![0.0f32; 42];
@@ -103,9 +103,9 @@ fn onnx_matches_our_forward_pass_for_every_bundled_policy() {
 fn corrupt_or_mismatched_files_are_one_clear_error() {
     let dir = tempdir("bad");
     let file = dir.join("C.onnx");
-    topa::export::export(&policy("C"), &file, false).unwrap();
+    topa::export::export(&policy("C/seed1"), &file, false).unwrap();
     // Exported from another policy.
-    let err = topa::export::check(&file, &policy("O")).unwrap_err().to_string();
+    let err = topa::export::check(&file, &policy("O/seed1")).unwrap_err().to_string();
     assert!(err.contains("was not exported from") && err.lines().count() == 1, "{err}");
     // Truncated.
     let bytes = std::fs::read(&file).unwrap();
@@ -121,14 +121,14 @@ fn corrupt_or_mismatched_files_are_one_clear_error() {
     let copy = dir.join("p");
     std::fs::create_dir_all(&copy).unwrap();
     for ext in ["json", "safetensors"] {
-        std::fs::copy(policy("C").with_extension(ext), copy.join(format!("C.{ext}"))).unwrap();
+        std::fs::copy(policy("C/seed1").with_extension(ext), copy.join(format!("seed1.{ext}"))).unwrap();
     }
-    let w = copy.join("C.safetensors");
+    let w = copy.join("seed1.safetensors");
     let mut b = std::fs::read(&w).unwrap();
     let n = b.len();
     b[n - 5] ^= 0xff;
     std::fs::write(&w, b).unwrap();
-    let err = topa::export::export(&copy.join("C.json"), &dir.join("x.onnx"), false).unwrap_err().to_string();
+    let err = topa::export::export(&copy.join("seed1.json"), &dir.join("x.onnx"), false).unwrap_err().to_string();
     assert!(err.contains("corrupt"), "{err}");
     assert!(!dir.join("x.onnx").exists());
     std::fs::remove_dir_all(dir).ok();

@@ -12,7 +12,7 @@ fn realistic() -> EvalSettings {
 }
 
 fn c_policy() -> PolicyRunner {
-    PolicyRunner::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C.json")), "C").unwrap()
+    PolicyRunner::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C/seed1.json")), "C").unwrap()
 }
 
 /// Runs the C policy for `seconds` after 2 s of standing, returning per policy step (true world velocity,

@@ -48,7 +48,7 @@ fn the_standing_robot_fills_the_middle_of_the_frame() {
 fn a_video_of_n_seconds_has_n_times_fps_frames() {
     let dir = tempdir("frames");
     let out = dir.join("stand.gif");
-    let policy = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C.json"));
+    let policy = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C/seed1.json"));
     let settings = EvalSettings { settle_s: 1.0, ..EvalSettings::default() };
     let o = PlayOptions {
         command: [0.3, 0.0, 0.0],
@@ -78,7 +78,7 @@ fn without_gl_libraries_the_command_says_what_to_install() {
     std::fs::write(dir.join("libEGL.so.1"), b"not a library").unwrap();
     std::fs::write(dir.join("libEGL.so"), b"not a library").unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_topa"))
-        .args(["play", "--policy", concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C.json")])
+        .args(["play", "--policy", concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C/seed1.json")])
         .args(["--seconds", "0.1", "--video"])
         .arg(dir.join("x.gif"))
         .env("LD_LIBRARY_PATH", &dir)

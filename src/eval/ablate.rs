@@ -68,6 +68,15 @@ impl Extent {
     pub fn paper_push_range(&self) -> bool {
         self.push_range_n == Extent::full().push_range_n
     }
+    /// How finely this protocol resolves the claims: a grid coarser than the paper's is a sample of its cells (so
+    /// intervals resample the cells too), and anything short of the full protocol says so in its verdicts.
+    pub fn resolution(&self) -> super::claims::Resolution {
+        let full = Extent::full();
+        super::claims::Resolution {
+            push: super::intervals::Resampling { tasks: self.push_step_n > full.push_step_n },
+            quick: *self != full,
+        }
+    }
     /// One line: grid, noise runs, tracking starts.
     pub fn describe(&self) -> String {
         let cells = push::axis(self.push_range_n, self.push_step_n).map_or(0, |a| a.len());
@@ -204,15 +213,36 @@ pub fn markdown(a: &Ablation) -> Result<String> {
             Extent::full().push_range_n
         )
     };
+    let protocol = if a.extent == Extent::full() {
+        format!("Protocol: the paper's full protocol ({}).", a.extent.describe())
+    } else {
+        format!(
+            "Protocol: quick ({}), not the paper's; `--full` runs the paper's 13×13 grid to ±30 N and 100 runs of \
+             20 s per level.",
+            a.extent.describe()
+        )
+    };
     Ok(format!(
-        "## Headline numbers\n\n{grid_note}{}\n## The paper's claims and the bars, checked\n\n{}\n## Commanded velocity \
-         tracking\n{}\n## Gait\n\n{}\n## Each policy\n\n{}",
-        groups::headline_markdown(&g, &paper),
-        super::claims::markdown(&super::claims::check(&g)),
+        "{protocol}\n\n## Headline numbers\n\n{grid_note}{}\n## The paper's claims and the bars, checked\n\n{}\n## Commanded velocity \
+         tracking\n{}\n## Gait\n\n{}\n## Intervals\n\n{}\n## Each policy\n\n{}",
+        groups::headline_markdown(&g, &paper, a.extent.resolution().push),
+        super::claims::markdown(&super::claims::check(&g, a.extent.resolution())),
         groups::tracking_markdown(&g, &paper),
         groups::gait_markdown(&g),
+        groups::intervals_markdown(&g, a.extent.resolution().push),
         groups::per_policy_markdown(&a.results),
     ))
+}
+
+/// One section of the report by name, for the pages that show it (README.md): "headline" or "claims".
+pub fn section(a: &Ablation, kind: &str) -> Result<String> {
+    let paper = report::paper()?;
+    let g = groups::group(&a.results);
+    match kind {
+        "headline" => Ok(groups::headline_markdown(&g, &paper, a.extent.resolution().push)),
+        "claims" => Ok(super::claims::markdown(&super::claims::check(&g, a.extent.resolution()))),
+        _ => anyhow::bail!("no report section {kind:?}: use headline or claims"),
+    }
 }
 
 /// Writes ablation.{md,json}, per-policy CSVs, and each group's mean heatmaps (standing and walking) into `out`.

@@ -5,18 +5,67 @@ use std::fmt::Write as _;
 
 use super::ablate::PolicyResults;
 use super::groups::{Group, Stat};
+use super::intervals::{self, Interval, Resampling, Scores};
 use super::report::label;
 
 /// One checked statement.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Claim {
     pub statement: String,
-    /// None: a group it needs is missing (or has no numbers).
+    /// None: no verdict — a group it needs is missing, or an interval straddles zero (see `undecided`).
     pub holds: Option<bool>,
     pub evidence: String,
+    /// What the report says when there is no verdict.
+    pub undecided: &'static str,
 }
 
-/// Bars a shipped C or C+A policy must meet (issue 14): every tracking command without a fall, each component's
+/// How finely the data resolve a claim: how the push grid is resampled, and whether the protocol is the quick one
+/// (whose grid and noise runs are coarser than the paper's).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Resolution {
+    pub push: Resampling,
+    pub quick: bool,
+}
+
+impl Resolution {
+    fn too_few(&self) -> &'static str {
+        "undecided: fewer than 5 seeds in a group, too few for a bootstrap interval to decide"
+    }
+    fn undecided(&self) -> &'static str {
+        if self.quick {
+            "undecided: the 95 % CI includes zero; the quick protocol is too coarse to decide, run `--full`"
+        } else {
+            "undecided: the 95 % CI includes zero"
+        }
+    }
+}
+
+/// A claim that group x beats group y, judged on the 95 % interval of the difference of their means.
+fn improvement(statement: String, x: &Scores, y: &Scores, how: Resampling, res: Resolution, unit: &str) -> Claim {
+    let Some((d, p)) = intervals::compare(x, y, how) else {
+        return Claim { statement, holds: None, evidence: "a group has no numbers".into(), undecided: "–" };
+    };
+    let digits = if unit == "s" { 2 } else { 0 };
+    let enough = x.len() >= intervals::MIN_RUNS_FOR_VERDICT && y.len() >= intervals::MIN_RUNS_FOR_VERDICT;
+    Claim {
+        statement,
+        holds: if enough { d.sign() } else { None },
+        evidence: format!(
+            "difference {} {unit} [{}, {}], P(improvement) {}",
+            signed(d.point, digits),
+            signed(d.lo, digits),
+            signed(d.hi, digits),
+            p.show(2)
+        ),
+        undecided: if enough { res.undecided() } else { res.too_few() },
+    }
+}
+
+fn signed(x: f64, digits: usize) -> String {
+    format!("{x:+.digits$}")
+}
+
+/// Bars a shipped C or C+A policy must meet: every tracking command without a fall, each component's
 /// whole-window MAE within this bound, and at 0.5 m/s this gait.
 pub const MAX_COMPONENT_MAE: f64 = 0.15;
 pub const MIN_AIR_TIME_S: f64 = 0.2;
@@ -33,56 +82,57 @@ fn known(s: Stat) -> Option<Stat> {
     s.mean.is_finite().then_some(s)
 }
 
-/// The claims that compare groups (O, C, CA by name), and the bars each C and C+A policy must meet.
-pub fn check(groups: &[Group]) -> Vec<Claim> {
+/// The claims that compare groups (O, C, CA by name), and the bars each C and C+A policy must meet. A comparison
+/// holds when the 95 % interval of the difference lies above zero (rliable's reading), fails when it lies below.
+pub fn check(groups: &[Group], res: Resolution) -> Vec<Claim> {
     let mut out = Vec::new();
     let t = |name: &str| find(groups, name).and_then(|g| known(g.t_fall_standing()));
     let (o, c, ca) = (t("O"), t("C"), t("CA"));
     out.push(Claim {
-        statement: "mean t_fall (standing pushes): O < C < C+A".into(),
+        statement: "mean t_fall (standing pushes): O < C < C+A, on the means".into(),
         holds: match (o, c, ca) {
             (Some(o), Some(c), Some(ca)) => Some(o.mean < c.mean && c.mean < ca.mean),
             _ => None,
         },
         evidence: format!(
-            "O {}, C {}, C+A {} s (paper 4.77 < 8.48 < 9.71)",
+            "O {}, C {}, C+A {} s (mean ± sd; paper 4.77 < 8.48 < 9.71)",
             o.map_or("–".into(), |s| s.show(2)),
             c.map_or("–".into(), |s| s.show(2)),
             ca.map_or("–".into(), |s| s.show(2))
         ),
+        undecided: "–",
     });
-    if let (Some(c), Some(ca)) = (c, ca) {
-        let (diff, spread) = (ca.mean - c.mean, c.sd + ca.sd);
-        out.push(Claim {
-            statement: "C+A − C exceeds the two groups' standard deviations combined".into(),
-            holds: (c.n > 1 && ca.n > 1).then_some(diff > spread),
-            evidence: format!(
-                "C+A − C = {diff:+.2} s, sd_C + sd_C+A = {spread:.2} s ({} and {} policies{})",
-                c.n,
-                ca.n,
-                if c.n > 1 && ca.n > 1 { "" } else { ": one seed has no sd, no verdict" }
-            ),
-        });
-        out.push(Claim {
-            statement: format!("C+A mean t_fall ≥ {MIN_CA_T_FALL_S} s"),
-            holds: Some(ca.mean >= MIN_CA_T_FALL_S),
-            evidence: format!("{:.2} s (paper 9.71)", ca.mean),
-        });
+    let push = |name: &str| find(groups, name).map(|g| g.push_scores(false));
+    for (x, y) in [("C", "O"), ("CA", "C")] {
+        if let (Some(sx), Some(sy)) = (push(x), push(y)) {
+            let statement = format!("{} − {} under standing pushes (mean t_fall): above zero", label(x), label(y));
+            out.push(improvement(statement, &sx, &sy, res.push, res, "s"));
+        }
+    }
+    if let Some(g) = find(groups, "CA") {
+        let ci: Interval = intervals::interval(&g.push_scores(false), res.push, intervals::mean);
+        if ci.point.is_finite() {
+            out.push(Claim {
+                statement: format!("C+A mean t_fall ≥ {MIN_CA_T_FALL_S} s"),
+                holds: Some(ci.point >= MIN_CA_T_FALL_S),
+                evidence: format!("{} s (paper 9.71)", ci.show(2)),
+                undecided: "–",
+            });
+        }
     }
     if let (Some(gc), Some(gca)) = (find(groups, "C"), find(groups, "CA")) {
         let levels = gc.members.iter().chain(&gca.members).map(|r| r.noise.len()).min().unwrap_or(0);
-        let pairs: Vec<(f64, f64)> = (0..levels).map(|i| (gc.noise(i).mean, gca.noise(i).mean)).collect();
-        // Where both succeed every time there is nothing to be above: a tie at 100 % does not count against.
-        out.push(Claim {
-            statement: "C+A above C at every command-noise level (ties at 100 % aside)".into(),
-            holds: (levels > 0).then(|| pairs.iter().all(|&(c, ca)| ca > c || (c >= 100.0 && ca >= 100.0))),
-            evidence: pairs
-                .iter()
-                .enumerate()
-                .map(|(i, (c, ca))| format!("L{}: C {c:.0} %, C+A {ca:.0} %", i + 1))
-                .collect::<Vec<_>>()
-                .join("; "),
-        });
+        for i in 0..levels {
+            let statement = format!("C+A − C success at command-noise level {}: above zero", i + 1);
+            let (sc, sca) = (gc.noise_scores(i), gca.noise_scores(i));
+            let all_succeed = |s: &Scores| s.runs.iter().all(|r| r[0] >= 100.0);
+            if all_succeed(&sc) && all_succeed(&sca) {
+                // Where both succeed every time there is nothing to be above.
+                out.push(Claim { statement, holds: None, evidence: "both 100 %".into(), undecided: "tie" });
+                continue;
+            }
+            out.push(improvement(statement, &sca, &sc, Resampling { tasks: false }, res, "%"));
+        }
     }
     for g in groups.iter().filter(|g| g.name == "C" || g.name == "CA") {
         for r in &g.members {
@@ -114,11 +164,13 @@ pub fn policy_bars(r: &PolicyResults) -> Vec<Claim> {
             statement: format!("{who}: no fall on any tracking command"),
             holds: Some(falls.is_empty()),
             evidence: if falls.is_empty() { "0 falls".into() } else { format!("fell on {}", falls.join(", ")) },
+            undecided: "–",
         },
         Claim {
             statement: format!("{who}: each component's MAE ≤ {MAX_COMPONENT_MAE}"),
             holds: Some(worst.1 <= MAX_COMPONENT_MAE),
             evidence: format!("worst {:.3} ({})", worst.1, worst.0),
+            undecided: "–",
         },
     ];
     // Not one of the issue's bars, but a policy that stands still on a command from some initial states fails its
@@ -132,6 +184,7 @@ pub fn policy_bars(r: &PolicyResults) -> Vec<Claim> {
             } else {
                 format!("stood still on {}", still.join(", "))
             },
+            undecided: "–",
         });
     }
     if let Some(g) = r.tracking.iter().find(|t| t.key == "walk_forward").map(|t| &t.gait) {
@@ -148,6 +201,7 @@ pub fn policy_bars(r: &PolicyResults) -> Vec<Claim> {
                 100.0 * g.clearance_m,
                 g.steps_per_s
             ),
+            undecided: "–",
         });
     }
     out
@@ -159,7 +213,7 @@ pub fn markdown(claims: &[Claim]) -> String {
         let verdict = match c.holds {
             Some(true) => "yes",
             Some(false) => "**no**",
-            None => "–",
+            None => c.undecided,
         };
         let _ = writeln!(s, "| {} | {verdict} | {} |", c.statement, c.evidence);
     }
@@ -175,7 +229,7 @@ mod tests {
     use crate::eval::tracking::TrackingRow;
     use crate::push_grid::PushGrid;
 
-    fn policy(name: &str, t_fall: f64, noise: [f64; 2], worst: f64, air: f64) -> PolicyResults {
+    fn policy(name: &str, id: usize, t_fall: f64, noise: [f64; 2], worst: f64, air: f64) -> PolicyResults {
         let row = |key: &str, fell: bool| TrackingRow {
             key: key.into(),
             command: [0.5, 0.0, 0.0],
@@ -196,7 +250,7 @@ mod tests {
         let grid = PushGrid { axis: vec![0.0], t_fall: vec![t_fall], window_s: 10.0, command: [0.0; 3] };
         PolicyResults {
             name: name.into(),
-            policy: format!("{name}.json").into(),
+            policy: format!("{name}{id}.json").into(),
             trained_on: "topa_closed".into(),
             tracking: vec![row("walk_forward", false), row("rotate_cw", false)],
             push: grid.clone(),
@@ -212,50 +266,80 @@ mod tests {
         claims.iter().find(|c| c.statement.starts_with(starts)).expect(starts).holds
     }
 
+    const FULL: Resolution = Resolution { push: Resampling { tasks: false }, quick: false };
+
+    /// Five seeds per group: O far below C; C+A within C's spread under pushes, far above it under noise.
+    fn five_seeds() -> Vec<PolicyResults> {
+        let mut r = Vec::new();
+        for (i, t) in [5.0, 5.4, 5.1, 5.3, 5.2].into_iter().enumerate() {
+            r.push(policy("O", i + 1, t, [60.0, 5.0], 0.3, 0.25));
+        }
+        for (i, t) in [8.0, 9.0, 8.5, 8.8, 8.2].into_iter().enumerate() {
+            r.push(policy("C", i + 1, t, [100.0, 40.0 + i as f64], 0.1, 0.25));
+        }
+        for (i, t) in [8.1, 9.1, 8.4, 8.9, 8.6].into_iter().enumerate() {
+            r.push(policy("CA", i + 1, t, [100.0, 80.0 + i as f64], if i == 1 { 0.2 } else { 0.1 }, 0.25));
+        }
+        r[11].tracking[0].gait.air_time_s = 0.15; // C+A seed 2 also misses the gait bar
+        r
+    }
+
     #[test]
-    fn the_ordering_and_the_margin_are_judged_on_means_and_sds() {
-        // C+A ahead of C by 0.6 s, but the seeds spread by 0.5 s each: ordered, not separated.
-        let r = vec![
-            policy("O", 5.0, [100.0, 10.0], 0.1, 0.25),
-            policy("C", 8.0, [100.0, 40.0], 0.1, 0.25),
-            policy("C", 9.0, [100.0, 40.0], 0.1, 0.25),
-            policy("CA", 8.6, [100.0, 30.0], 0.1, 0.25),
-            policy("CA", 9.6, [100.0, 60.0], 0.2, 0.15),
-        ];
-        let c = check(&group(&r));
+    fn the_ordering_is_on_means_and_the_margins_on_intervals() {
+        let r = five_seeds();
+        let c = check(&group(&r), FULL);
         assert_eq!(verdict(&c, "mean t_fall (standing pushes): O < C < C+A"), Some(true));
-        assert_eq!(verdict(&c, "C+A − C exceeds"), Some(false), "0.6 s against 0.71 + 0.71");
-        assert_eq!(verdict(&c, "C+A mean t_fall ≥"), Some(true)); // 9.1
-                                                                  // Level 1: both at 100 % (a tie that does not count against); level 2: 45 > 40.
-        assert_eq!(verdict(&c, "C+A above C at every command-noise level"), Some(true));
+        assert_eq!(verdict(&c, "C − O under standing pushes"), Some(true), "3.3 s, no overlap");
+        let margin = c.iter().find(|x| x.statement.starts_with("C+A − C under standing pushes")).unwrap();
+        assert_eq!(margin.holds, None, "0.12 s inside the seeds' spread: {margin:?}");
+        assert_eq!(margin.undecided, "undecided: the 95 % CI includes zero");
+        assert!(margin.evidence.starts_with("difference +0.12 s ["), "{}", margin.evidence);
+        let row = markdown(std::slice::from_ref(margin));
+        assert!(row.contains("| undecided: the 95 % CI includes zero |"), "{row}");
+        assert_eq!(verdict(&c, "C+A mean t_fall ≥"), Some(false), "8.62 s is below the 9 s bar");
+        // Level 1: every seed of both at 100 % — a tie, no verdict; level 2: ~82 against ~42 % — above.
+        let l1 = c.iter().find(|x| x.statement.contains("level 1")).unwrap();
+        assert_eq!((l1.holds, l1.undecided), (None, "tie"));
+        assert_eq!(verdict(&c, "C+A − C success at command-noise level 2"), Some(true));
         let mut worse = r.clone();
-        worse[4].noise[1].success_pct = 20.0; // C+A level 2: 25 % against 40 %
-        assert_eq!(verdict(&check(&group(&worse)), "C+A above C at every command-noise level"), Some(false));
-        // The second C+A policy misses two bars: its worst component (0.2) and its air time (0.15 s).
-        let bars: Vec<&Claim> = c.iter().filter(|x| x.statement.starts_with("C+A CA.json")).collect();
+        for x in worse.iter_mut().filter(|x| x.name == "CA") {
+            x.noise[1].success_pct = 10.0;
+            x.noise[1].successes = 10;
+        }
+        assert_eq!(verdict(&check(&group(&worse), FULL), "C+A − C success at command-noise level 2"), Some(false));
+        // Fewer than five seeds: the interval is shown, the verdict withheld.
+        let three: Vec<PolicyResults> =
+            r.iter().filter(|x| x.name != "C" || x.policy.ends_with("C4.json")).cloned().collect();
+        let c3 = check(&group(&three), FULL);
+        let m = c3.iter().find(|x| x.statement.starts_with("C − O under standing pushes")).unwrap();
+        assert!(m.holds.is_none() && m.undecided.contains("fewer than 5 seeds"), "{m:?}");
+        // The quick protocol says that it cannot decide, rather than deciding.
+        let quick = check(&group(&r), Resolution { push: Resampling { tasks: true }, quick: true });
+        let m = quick.iter().find(|x| x.statement.starts_with("C+A − C under standing pushes")).unwrap();
+        assert!(m.holds.is_none() && m.undecided.contains("quick protocol is too coarse"), "{m:?}");
+        // C+A seed 2 misses two bars: its worst component (0.2) and its air time (0.15 s).
+        let bars: Vec<&Claim> = c.iter().filter(|x| x.statement.starts_with("C+A CA2.json")).collect();
         assert_eq!(bars.iter().filter(|x| x.holds == Some(false)).count(), 2, "{bars:?}");
         // Starts that fell or stood still are named with their counts; a report without stand-still counts has
         // no verdict on them.
         let mut bistable = r.clone();
-        bistable[1].tracking[1].stood_still = Some(4);
-        bistable[1].tracking[1].fell = true;
-        bistable[1].tracking[1].falls = Some(2);
-        let c = check(&group(&bistable));
+        bistable[5].tracking[1].stood_still = Some(4);
+        bistable[5].tracking[1].fell = true;
+        bistable[5].tracking[1].falls = Some(2);
+        let c = check(&group(&bistable), FULL);
         let claim = |s: &str| c.iter().find(|x| x.statement.starts_with(s)).expect(s).clone();
-        let still = claim("C C.json: no start stands still");
+        let still = claim("C C1.json: no start stands still");
         assert_eq!((still.holds, still.evidence.as_str()), (Some(false), "stood still on rotate_cw (4/10)"));
-        assert_eq!(claim("C C.json: no fall").evidence, "fell on rotate_cw (2/10)");
-        assert_eq!(claim("C+A CA.json: no start stands still").holds, Some(true));
+        assert_eq!(claim("C C1.json: no fall").evidence, "fell on rotate_cw (2/10)");
+        assert_eq!(claim("C+A CA1.json: no start stands still").holds, Some(true));
         let stand_claims = |r: &[PolicyResults]| {
-            check(&group(r)).iter().filter(|x| x.statement.starts_with("C C.json: no start stands")).count()
+            check(&group(r), FULL).iter().filter(|x| x.statement.starts_with("C C1.json: no start stands")).count()
         };
-        assert_eq!(stand_claims(&bistable), 2, "one per C policy");
-        bistable[1].tracking[0].stood_still = None;
-        assert_eq!(stand_claims(&bistable), 1, "the first C's report has no count on walk_forward");
-        // One seed per group: no sd, no verdict on the margin.
-        let single = vec![policy("C", 8.0, [90.0, 40.0], 0.1, 0.25), policy("CA", 9.5, [95.0, 60.0], 0.1, 0.25)];
-        let c = check(&group(&single));
-        assert_eq!(verdict(&c, "C+A − C exceeds"), None);
-        assert_eq!(verdict(&c, "mean t_fall (standing pushes): O < C < C+A"), None, "no O group");
+        assert_eq!(stand_claims(&bistable), 1);
+        bistable[5].tracking[0].stood_still = None;
+        assert_eq!(stand_claims(&bistable), 0, "the report has no count on walk_forward");
+        // No O group: no ordering verdict.
+        let single = vec![policy("C", 1, 8.0, [90.0, 40.0], 0.1, 0.25), policy("CA", 1, 9.5, [95.0, 60.0], 0.1, 0.25)];
+        assert_eq!(verdict(&check(&group(&single), FULL), "mean t_fall (standing pushes): O < C < C+A"), None);
     }
 }

@@ -6,6 +6,7 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use super::ablate::PolicyResults;
+use super::intervals::{self, Resampling, Scores};
 use super::push::PushGrid;
 use super::report::{label, PaperTables};
 use super::tracking::{RunCounts, COMMANDS};
@@ -82,6 +83,22 @@ impl Group<'_> {
     pub fn worst_component(&self) -> Stat {
         self.stat(worst_component)
     }
+    /// Time to fall per push-grid cell (the tasks), one row per policy; standing or walking.
+    pub fn push_scores(&self, walking: bool) -> Scores {
+        let grid = |r: &PolicyResults| if walking { r.push_walking.clone() } else { Some(r.push.clone()) };
+        Scores { runs: self.members.iter().filter_map(|r| grid(r)).map(|g| g.t_fall).collect(), trials: None }
+    }
+    /// Success rate at one command-noise level, one row per policy, with the runs it counts.
+    pub fn noise_scores(&self, level: usize) -> Scores {
+        let rows: Vec<_> = self.members.iter().filter_map(|r| r.noise.get(level)).collect();
+        Scores {
+            runs: rows.iter().map(|n| vec![n.success_pct]).collect(),
+            trials: Some(rows.iter().map(|n| vec![n.runs]).collect()),
+        }
+    }
+    pub fn worst_component_scores(&self) -> Scores {
+        Scores::per_run(&self.members.iter().map(|r| worst_component(r)).collect::<Vec<_>>())
+    }
 }
 
 fn worst_component(r: &PolicyResults) -> f64 {
@@ -95,8 +112,9 @@ fn paper_cell(ours: String, paper: Option<String>) -> String {
     }
 }
 
-/// The headline table: push (standing, walking), command noise, tracking falls, worst tracking component.
-pub fn headline_markdown(groups: &[Group], paper: &PaperTables) -> String {
+/// The headline table: push (standing, walking), command noise, tracking falls, worst tracking component — each
+/// as the group's mean with its bootstrap 95 % interval (`intervals`), the paper's value beside.
+pub fn headline_markdown(groups: &[Group], paper: &PaperTables, how: Resampling) -> String {
     let levels = groups.iter().flat_map(|g| g.members.iter().map(|r| r.noise.len())).max().unwrap_or(0);
     let mut s = String::from("| Group | policies | mean t_fall standing (s) | mean t_fall walking v_x = 0.5 (s) |");
     for i in 0..levels {
@@ -105,6 +123,7 @@ pub fn headline_markdown(groups: &[Group], paper: &PaperTables) -> String {
     s.push_str(" tracking falls | tracking stand-stills | worst component MAE |\n|---|---:|---:|---:|");
     s.push_str(&"---:|".repeat(levels + 3));
     s.push('\n');
+    let per_seed = Resampling { tasks: false };
     for g in groups {
         let p = paper.push_mean_t_fall.get(g.name).map(|x| format!("{x:.2}"));
         let _ = write!(
@@ -112,23 +131,54 @@ pub fn headline_markdown(groups: &[Group], paper: &PaperTables) -> String {
             "| {} | {} | {} | {} |",
             label(g.name),
             g.members.len(),
-            paper_cell(g.t_fall_standing().show(2), p),
-            g.t_fall_walking().show(2)
+            paper_cell(intervals::interval(&g.push_scores(false), how, intervals::mean).show(2), p),
+            intervals::interval(&g.push_scores(true), how, intervals::mean).show(2)
         );
         for i in 0..levels {
             let p = paper.noise_success.get(g.name).and_then(|v| v.get(i)).map(|x| format!("{x:.0}"));
-            let _ = write!(s, " {} |", paper_cell(g.noise(i).show(0), p));
+            let ours = intervals::interval(&g.noise_scores(i), per_seed, intervals::mean).show(0);
+            let _ = write!(s, " {} |", paper_cell(ours, p));
         }
         let n = g.tracking_counts();
-        let _ = writeln!(s, " {} | {} | {} |", n.falls_cell(), n.still_cell(), g.worst_component().show(3));
+        let worst = intervals::interval(&g.worst_component_scores(), per_seed, intervals::mean).show(3);
+        let _ = writeln!(s, " {} | {} | {worst} |", n.falls_cell(), n.still_cell());
     }
     let _ = writeln!(
         s,
-        "\nmean ± sd over each group's policies (sample sd); cells: ours (paper). Tracking falls and stand-stills: \
-         runs (each of the six commands from each initial state) that fell, or whose mean velocity along the \
-         command stayed below a quarter of it, over all the group's policies; worst component MAE: the largest of \
-         the three per-component errors (whole window, mean over the starts) over the six commands, per policy."
+        "\nmean over each group's policies [95 % confidence interval: stratified bootstrap over the seeds{}, \
+         {} replicates]; cells: ours (paper). Tracking falls and stand-stills: runs (each of the six commands from \
+         each initial state) that fell, or whose mean velocity along the command stayed below a quarter of it, over \
+         all the group's policies; worst component MAE: the largest of the three per-component errors (whole \
+         window, mean over the starts) over the six commands, per policy.",
+        if how.tasks { " and the grid's cells (a sample of the paper's grid)" } else { " within each push-grid cell" },
+        intervals::REPLICATES
     );
+    s
+}
+
+/// Each group's mean and interquartile mean (IQM) of every score, with their 95 % intervals: the IQM discounts
+/// the best and worst quarter of the seed × cell scores (rliable's robust aggregate).
+pub fn intervals_markdown(groups: &[Group], how: Resampling) -> String {
+    let mut s = String::from("| Group | measure | mean [95 % CI] | IQM [95 % CI] |\n|---|---|---:|---:|\n");
+    let per_seed = Resampling { tasks: false };
+    for g in groups {
+        let levels = g.members.iter().map(|r| r.noise.len()).min().unwrap_or(0);
+        let mut rows = vec![
+            ("t_fall standing (s)", g.push_scores(false), how, 2),
+            ("t_fall walking (s)", g.push_scores(true), how, 2),
+        ];
+        rows.extend((0..levels).map(|i| ("", g.noise_scores(i), per_seed, 0)));
+        for (k, (name, scores, h, d)) in rows.into_iter().enumerate() {
+            let name = if name.is_empty() { format!("noise level {} success (%)", k - 1) } else { name.into() };
+            let _ = writeln!(
+                s,
+                "| {} | {name} | {} | {} |",
+                label(g.name),
+                intervals::interval(&scores, h, intervals::mean).show(d),
+                intervals::interval(&scores, h, intervals::iqm).show(d)
+            );
+        }
+    }
     s
 }
 

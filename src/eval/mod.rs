@@ -7,6 +7,7 @@ pub mod ablate;
 pub mod claims;
 pub mod gait;
 pub mod groups;
+pub mod intervals;
 mod nan_json;
 pub mod noise;
 pub mod push;
@@ -115,14 +116,14 @@ pub struct PolicyRunner {
     act_buf: Vec<f32>,
 }
 
-/// The spec a policy file names: its `robot`, or the model ("closed"/"open") of earlier builds.
+/// The spec a policy file names: its `robot`, a spec path or a bundled robot's name.
 fn policy_robot(meta: &trainer::policy_file::PolicyMeta) -> Result<PathBuf> {
     let named = meta.robot.as_deref().filter(|r| r.ends_with(".toml"));
     Ok(match named {
         Some(r) => assets::robot_path(r),
-        None => assets::robot_path(
-            ModelKind::of_policy(meta.robot.as_deref(), meta.model.as_deref()).map_err(anyhow::Error::msg)?.spec_path(),
-        ),
+        None => {
+            assets::robot_path(ModelKind::of_policy(meta.robot.as_deref()).map_err(anyhow::Error::msg)?.spec_path())
+        }
     })
 }
 

@@ -2,12 +2,15 @@
 //! the paper leaves open (σ's, command ranges, termination), each chosen and explained here. Read from TOML with
 //! unknown keys rejected.
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{EnvError, Result};
 use crate::robot::ModelKind;
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// The task's settings: the robot, its simulation, commands, rewards, noise, randomisation, pushes, termination,
+/// the realistic-sim2sim models and the adversary's bounds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct EnvConfig {
     /// What is trained: the robot (default), or the cart-pole (a one-minute check of an install or a cluster).
@@ -25,15 +28,21 @@ pub struct EnvConfig {
     pub integrator: IntegratorChoice,
     /// Episode length before a time-out, s.
     pub episode_length_s: f64,
-    /// Motor target = nominal + action_scale · action (rad per unit action).
+    /// Motor target = nominal + action_scale · action, rad per unit action.
     pub action_scale: f64,
     /// Actions are clipped to ±action_clip before scaling (the decay loss keeps them far smaller).
     pub action_clip: f64,
+    /// The velocity commands the policy is trained to follow.
     pub commands: CommandConfig,
+    /// Reward weights (paper: Table "Rewards") and the kernels' σ's.
     pub rewards: RewardConfig,
+    /// Observation noise (paper: Table "Overview of Domain Randomization").
     pub noise: ObsNoiseConfig,
+    /// Per-episode friction and mass randomisation (paper: Table "Overview of Domain Randomization").
     pub domain_rand: DomainRandConfig,
+    /// Random velocity kicks of the torso (paper: push velocity [0.0, 2.5] m/s, "add").
     pub push: PushConfig,
+    /// When an episode ends in a fall.
     pub termination: TerminationConfig,
     /// Realistic sim2sim: state estimator, sensor noise, latency, torque–speed limits (default: all off, the
     /// ideal simulator). In training, `[env.sim2sim.estimator] enabled = true` trains on the estimator's output.
@@ -43,7 +52,7 @@ pub struct EnvConfig {
 }
 
 /// Which integrator the env runs: the MJCF's own, or an override.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum IntegratorChoice {
     #[default]
@@ -90,7 +99,8 @@ impl std::fmt::Display for IntegratorChoice {
     }
 }
 
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// What is trained.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum TaskKind {
     #[default]
@@ -99,10 +109,10 @@ pub enum TaskKind {
 }
 
 /// Bounds of the adversary's perturbations (ours: the paper publishes none; see assets/policies/README.md).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct AdversaryBounds {
-    /// Largest offset of each commanded value (v_x, v_y in m/s, w_z in rad/s).
+    /// Largest offset of each commanded value (v_x, v_y, w_z), m/s, m/s, rad/s.
     pub max_command_offset: [f64; 3],
     /// Largest tilt of the observed gravity vector, rad.
     pub max_gravity_tilt: f64,
@@ -180,18 +190,21 @@ fn one_line(s: &str) -> String {
 }
 
 /// Velocity commands (v_x, v_y, w_z) in the robot frame.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct CommandConfig {
-    /// Ranges cover the paper's evaluation commands (0.5, −0.35, ±0.5 m/s, ±1 rad/s) with a margin.
+    /// Range of the forward velocity command v_x, m/s (the ranges cover the paper's evaluation commands 0.5,
+    /// −0.35, ±0.5 m/s and ±1 rad/s with a margin).
     pub lin_vel_x: [f64; 2],
+    /// Range of the sideways velocity command v_y, m/s.
     pub lin_vel_y: [f64; 2],
+    /// Range of the yaw-rate command w_z, rad/s.
     pub ang_vel_z: [f64; 2],
-    /// A new command every this many seconds within an episode.
+    /// A new command every this many seconds within an episode, s.
     pub resample_s: f64,
     /// Share of commands that are "stand still" (all zero).
     pub standing_share: f64,
-    /// Linear commands below this norm are zeroed (a tiny command is indistinguishable from standing).
+    /// Linear commands below this norm are zeroed (a tiny command is indistinguishable from standing), m/s.
     pub min_lin_norm: f64,
 }
 
@@ -209,22 +222,36 @@ impl Default for CommandConfig {
 }
 
 /// The 14 reward terms of the paper (Table "Rewards"): weights exactly as published, σ's ours.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct RewardConfig {
+    /// Weight of the linear velocity tracking term exp(−‖v_xy^cmd − v_xy‖²/σ_v) (paper: 3.0).
     pub lin_vel_xy_tracking: f64,
+    /// Weight of the yaw-rate tracking term exp(−(ω_z^cmd − ω_z)²/σ_ω) (paper: 1.5).
     pub ang_vel_z_tracking: f64,
+    /// Weight of the vertical velocity term v_z² (paper: −1.0).
     pub lin_vel_z: f64,
+    /// Weight of the roll and pitch rate term ‖ω_xy‖² (paper: −0.5).
     pub ang_vel_xy: f64,
+    /// Weight of the orientation term exp(−‖g_xy‖²/σ_g) (paper: 1.0).
     pub orientation: f64,
+    /// Weight of the body-height term exp(−(h_target − h)²/σ_h) (paper: 1.0).
     pub body_height: f64,
+    /// Weight of the action-rate term ‖a_t − a_{t−1}‖² (paper: −2.0).
     pub action_rate: f64,
+    /// Weight of the hip-roll deviation term exp(−θ_hip_roll²/σ_roll) (paper: 0.5).
     pub hip_roll_deviation: f64,
+    /// Weight of the hip-yaw deviation term exp(−θ_hip_yaw²/σ_yaw) (paper: 0.5).
     pub hip_yaw_deviation: f64,
+    /// Weight of the ankle-pitch deviation term exp(−θ_ankle_pitch²/σ_pitch) (paper: 0.5).
     pub ankle_pitch_deviation: f64,
+    /// Weight of the joint-limit term Σ ReLU beyond the soft joint limits (paper: −5.0).
     pub joint_position_limits: f64,
+    /// Weight of the torque-limit term Σ ReLU(|τ| − soft limit) (paper: −1e-3).
     pub motor_torque_limits: f64,
+    /// Weight of the feet-slip term Σ ‖v_foot‖ of the feet in contact (paper: −1.0).
     pub feet_slip: f64,
+    /// Weight of the feet-air-time term in the form `air_time_form` names (paper: 0.5).
     pub feet_air_time: f64,
     /// Ours, not in the paper (0 there): a foot-clearance term in the form `clearance_form` names.
     pub feet_clearance: f64,
@@ -242,9 +269,11 @@ pub struct RewardConfig {
     pub sigma_g: f64,
     /// σ_h of the body-height kernel, m².
     pub sigma_h: f64,
-    /// σ's of the joint-deviation kernels (deviation from the nominal pose, both legs' squares summed), rad².
+    /// σ_roll of the hip-roll deviation kernel (deviation from the nominal pose, both legs' squares summed), rad².
     pub sigma_roll: f64,
+    /// σ_yaw of the hip-yaw deviation kernel (both legs' squares summed), rad².
     pub sigma_yaw: f64,
+    /// σ_pitch of the ankle-pitch deviation kernel (both legs' squares summed), rad².
     pub sigma_pitch: f64,
     /// Torso height target h_target, m; 0 = the robot spec's `base_height_target` (TopA: the stand keyframe's
     /// pelvis height, 0.5607 m).
@@ -266,7 +295,7 @@ pub struct RewardConfig {
 
 /// The feet-air-time equation. The paper prints Σ|t_air − 0.5|·𝟙_touchdown with weight +0.5, which pays most for
 /// the shortest steps (≈ 0.46 per 40 ms shuffle step) as well as for the longest.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum AirTimeForm {
     /// The paper's equation as printed: Σ|t_air − target|.
@@ -284,12 +313,12 @@ pub enum AirTimeForm {
 }
 
 /// The feet-clearance equation (ours; the paper has no such term).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum ClearanceForm {
     /// exp(−Σ_f max(0, h* − h_f)²·tanh(2‖v_f‖)/σ): feet moving over the ground below h* cost, feet at rest or
     /// above it do not (IsaacLab's foot-clearance shape). Measured: standing still is its optimum
-    /// (docs/results/levers.md).
+    /// (docs/results/experiments.md).
     #[default]
     Kernel,
     /// Σ_f 𝟙(foot f in the air)·min(h_f, h*)/h* while a motion is commanded: pays for lifting a swing foot up to
@@ -339,15 +368,20 @@ impl Default for RewardConfig {
 }
 
 /// Observation noise, uniform in ±value and added (paper, Table "Domain randomization").
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct ObsNoiseConfig {
+    /// Add the noise (false: exact observations).
     pub enabled: bool,
+    /// Noise bound of the base linear velocity, m/s (paper: 0.1).
     pub lin_vel: f64,
+    /// Noise bound of the base angular velocity, rad/s (paper: 0.2).
     pub ang_vel: f64,
+    /// Noise bound of the motor positions, rad (paper: 0.01).
     pub motor_pos: f64,
+    /// Noise bound of the motor velocities, rad/s (paper: 1.5).
     pub motor_vel: f64,
-    /// Not in the paper's table (0 = off).
+    /// Noise bound of the gravity vector's components (unit vector; not in the paper's table, 0 = off).
     pub gravity: f64,
 }
 
@@ -358,13 +392,14 @@ impl Default for ObsNoiseConfig {
 }
 
 /// Per-episode randomisation of the env's own model copy (paper: "scale" operator).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct DomainRandConfig {
+    /// Randomise each episode (false: the nominal model).
     pub enabled: bool,
-    /// Ground (and sole) friction scale.
+    /// Range of the ground (and sole) friction scale (paper: [0.75, 1.25]).
     pub friction_scale: [f64; 2],
-    /// Scale of every link's mass (inertia scaled alike, so density stays uniform).
+    /// Range of the scale of every link's mass, inertia scaled alike so density stays uniform (paper: [0.9, 1.1]).
     pub mass_scale: [f64; 2],
 }
 
@@ -375,17 +410,19 @@ impl Default for DomainRandConfig {
 }
 
 /// Random pushes: the base's horizontal velocity gets a kick of random direction and magnitude.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct PushConfig {
+    /// Kick the robot (false: no pushes).
     pub enabled: bool,
     /// Kick magnitude range, m/s (paper: [0, 2.5], "add").
     pub velocity: [f64; 2],
     /// Time between kicks, s.
     pub interval_s: f64,
-    /// Curriculum: the largest kick grows linearly from `curriculum_start` m/s to `velocity[1]` over the first
-    /// `curriculum_s` seconds of each env's experience (0 = no curriculum: the full range from the start).
+    /// Curriculum: the largest kick grows linearly from this to `velocity[1]` over the first `curriculum_s` of
+    /// each env's experience, m/s.
     pub curriculum_start: f64,
+    /// Length of the push curriculum in each env's experience, s (0 = no curriculum: the full range from the start).
     pub curriculum_s: f64,
 }
 
@@ -407,7 +444,7 @@ impl PushConfig {
 }
 
 /// When an episode ends in a fall.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct TerminationConfig {
     /// A fall ends the episode (false: the episode goes on with the robot on the floor, as an evaluation that
@@ -417,7 +454,7 @@ pub struct TerminationConfig {
     pub min_base_height: f64,
     /// Roll or pitch beyond this, rad.
     pub max_tilt: f64,
-    /// Any robot body other than the feet touching the floor.
+    /// Any robot body other than the feet touching the floor ends the episode.
     pub body_contact: bool,
 }
 

@@ -46,15 +46,14 @@ impl ModelKind {
             ModelKind::Open => "topa_open",
         }
     }
-    /// The model a policy file names: its `robot`, or the `model` ("closed"/"open") of earlier builds.
-    pub fn of_policy(robot: Option<&str>, legacy_model: Option<&str>) -> std::result::Result<ModelKind, String> {
-        match (robot, legacy_model) {
-            (Some(r), _) => [ModelKind::Closed, ModelKind::Open]
+    /// The model a policy file names by its robot's name (`topa_closed`, `topa_open`).
+    pub fn of_policy(robot: Option<&str>) -> std::result::Result<ModelKind, String> {
+        match robot {
+            Some(r) => [ModelKind::Closed, ModelKind::Open]
                 .into_iter()
                 .find(|k| k.robot_name() == r)
                 .ok_or_else(|| format!("robot '{r}' is not one of this build's robots (topa_closed, topa_open)")),
-            (None, Some(m)) => m.parse(),
-            (None, None) => Err("the policy file does not name the robot it was trained on".into()),
+            None => Err("the policy file does not name the robot it was trained on".into()),
         }
     }
     /// The bundled spec of this model, relative to the repository root.

@@ -46,7 +46,6 @@ pub struct Sidecar {
     /// The weights file (same directory) and its CRC-32.
     pub weights: String,
     pub weights_crc32: u32,
-    #[serde(deserialize_with = "crate::config::deserialize_migrated")]
     pub config: TrainConfig,
     /// The command line that started the run (for the record).
     pub command: String,

@@ -4,24 +4,33 @@
 
 use std::path::Path;
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct TrainConfig {
+    /// How long, how parallel, how often to save.
     pub run: RunConfig,
-    /// The task's settings (robot, rewards, randomisation, perturbation bounds …): opaque to the learner.
+    /// The task's settings (robot, rewards, randomisation, perturbation bounds …): opaque to the learner, so it
+    /// is no part of the learner's schema (the task's `EnvConfig` has its own).
+    #[schemars(skip)]
     pub env: toml::Table,
+    /// PPO's hyper-parameters (paper: Table "PPO Parameters").
     pub ppo: PpoConfig,
+    /// The actor's and critic's networks.
     pub network: NetworkConfig,
+    /// The robustness losses added to PPO's (symmetry, last-layer decay).
     pub losses: LossConfig,
+    /// The cyclic adversary's schedule and learner (used with `topa train --adversary`).
     pub adversary: AdversaryConfig,
 }
 
 /// How long, how parallel, how often to save.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct RunConfig {
+    /// Seed of every random stream of the run (envs, policy sampling, minibatches).
     pub seed: u64,
     /// Parallel environments (paper: 4096).
     pub num_envs: usize,
@@ -52,23 +61,34 @@ impl Default for RunConfig {
 }
 
 /// The paper's PPO table, plus rsl_rl's defaults where the paper is silent.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct PpoConfig {
+    /// Clip range ε of the policy ratio (paper: 0.2).
     pub clip: f64,
+    /// λ of generalised advantage estimation (paper: 0.95).
     pub gae_lambda: f64,
+    /// Reward discount factor γ (paper: 0.99).
     pub gamma: f64,
+    /// Initial learning rate of the actor-critic's Adam (paper: 3e-5).
     pub learning_rate: f64,
+    /// Gradients are clipped to this global norm (paper: 0.5).
     pub max_grad_norm: f64,
+    /// KL divergence per update that the adaptive learning rate aims at (paper: 0.02).
     pub desired_kl: f64,
+    /// Passes over each iteration's samples (paper: 5).
     pub epochs: usize,
+    /// Minibatches each pass is split into (paper: 4).
     pub minibatches: usize,
-    /// rsl_rl defaults (not in the paper's table).
+    /// Weight of the value loss (rsl_rl's default; not in the paper's table).
     pub value_loss_coef: f64,
+    /// Weight of the policy's entropy bonus (rsl_rl's default; not in the paper's table).
     pub entropy_coef: f64,
+    /// Clip the value function's change like the policy ratio (rsl_rl's default; not in the paper's table).
     pub clip_value_loss: bool,
-    /// Bounds of the adaptive learning rate.
+    /// Lower bound of the adaptive learning rate.
     pub lr_min: f64,
+    /// Upper bound of the adaptive learning rate.
     pub lr_max: f64,
     /// Adaptive learning rate from the KL (rsl_rl "adaptive" schedule); false keeps it fixed.
     pub adaptive_lr: bool,
@@ -95,10 +115,13 @@ impl Default for PpoConfig {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// The actor's and critic's networks (paper: Table "PPO Parameters").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct NetworkConfig {
+    /// Widths of the actor's hidden layers (paper: [512, 256, 128]).
     pub actor_hidden: Vec<usize>,
+    /// Widths of the critic's hidden layers (paper: [512, 256, 128]).
     pub critic_hidden: Vec<usize>,
     /// The hidden layers' activation (the paper's ELU; the only one the fused kernels implement).
     pub activation: HiddenActivation,
@@ -118,7 +141,7 @@ impl Default for NetworkConfig {
 }
 
 /// Activation of the hidden layers, as configs and policy files name it.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum HiddenActivation {
     #[default]
@@ -126,7 +149,7 @@ pub enum HiddenActivation {
 }
 
 /// The paper's robustness terms (their coefficients are not published; ours are documented here).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct LossConfig {
     /// Weight of L_symmetry = MSE(S_a(π(o)), π(S_o(o))) (paper: added with weight 1).
@@ -142,13 +165,18 @@ impl Default for LossConfig {
 }
 
 /// The cyclic adversary (paper: C+A). Off unless `topa train --adversary`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct AdversaryConfig {
+    /// Phase 1: iterations of the policy alone before the first cycle (paper: 1000).
     pub phase1_policy_iters: usize,
+    /// Phase 2 of each cycle: iterations of the adversary against the frozen policy (paper: 200).
     pub phase2_adversary_iters: usize,
+    /// Phase 3 of each cycle: iterations of the policy against the frozen adversary (paper: 200).
     pub phase3_policy_iters: usize,
+    /// Cycles of phases 2 and 3 (paper: 5).
     pub cycles: usize,
+    /// Widths of the adversary's hidden layers, actor and critic alike (paper: [512, 256, 128]).
     pub hidden: Vec<usize>,
     /// Cost on perturbation magnitude in the adversary's reward (0 = pure −task reward). What it perturbs and
     /// how far is the task's (its perturbation channels and their bounds).
@@ -199,8 +227,7 @@ impl TrainConfig {
     /// this file's keys on top, table by table, so an experiment config holds only what it changes.
     pub fn load(path: &Path) -> Result<TrainConfig, ConfigError> {
         let p = path.display().to_string();
-        let mut table = load_table(path, 0)?;
-        migrate(&mut table);
+        let table = load_table(path, 0)?;
         let cfg: TrainConfig = toml::Value::Table(table)
             .try_into()
             .map_err(|e: toml::de::Error| ConfigError::Parse { path: p.clone(), message: one_line(&e.to_string()) })?;
@@ -208,10 +235,9 @@ impl TrainConfig {
         Ok(cfg)
     }
 
-    /// A config saved in a checkpoint or policy sidecar (JSON), in the current layout whatever build wrote it.
+    /// A config saved in a checkpoint or policy sidecar (JSON).
     pub fn from_json(v: &serde_json::Value) -> Result<TrainConfig, String> {
-        let mut table: toml::Table = serde_json::from_value(v.clone()).map_err(|e| e.to_string())?;
-        migrate(&mut table);
+        let table: toml::Table = serde_json::from_value(v.clone()).map_err(|e| e.to_string())?;
         toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| one_line(&e.to_string()))
     }
 
@@ -264,51 +290,6 @@ impl TrainConfig {
     }
 }
 
-/// Earlier builds kept two task settings in the learner's tables: `run.task` (which task) and the adversary's
-/// perturbation bounds in `[adversary]`. Both belong to the task: they move into `[env]` (`env.task`, and the
-/// bounds into `[env.adversary]`), so old configs, checkpoints and policy
-/// files keep loading.
-pub fn migrate(table: &mut toml::Table) {
-    const MOVED: [&str; 4] = ["max_command_offset", "max_gravity_tilt", "max_foot_force", "generic_bound"];
-    let mut to_env: Vec<(String, toml::Value)> = Vec::new();
-    if let Some(toml::Value::Table(run)) = table.get_mut("run") {
-        if let Some(task) = run.remove("task") {
-            to_env.push(("task".into(), task));
-        }
-    }
-    let mut bounds = toml::Table::new();
-    if let Some(toml::Value::Table(adv)) = table.get_mut("adversary") {
-        for k in MOVED {
-            if let Some(v) = adv.remove(k) {
-                bounds.insert(k.to_string(), v);
-            }
-        }
-    }
-    if to_env.is_empty() && bounds.is_empty() {
-        return;
-    }
-    let env = table.entry("env").or_insert_with(|| toml::Value::Table(toml::Table::new()));
-    if let toml::Value::Table(env) = env {
-        for (k, v) in to_env {
-            env.entry(k).or_insert(v);
-        }
-        if !bounds.is_empty() {
-            let adv = env.entry("adversary").or_insert_with(|| toml::Value::Table(toml::Table::new()));
-            if let toml::Value::Table(adv) = adv {
-                for (k, v) in bounds {
-                    adv.entry(k).or_insert(v);
-                }
-            }
-        }
-    }
-}
-
-/// Serde helper for configs inside JSON sidecars (checkpoints, policy files): migrated before parsing.
-pub fn deserialize_migrated<'de, D: serde::Deserializer<'de>>(d: D) -> Result<TrainConfig, D::Error> {
-    let v = serde_json::Value::deserialize(d)?;
-    TrainConfig::from_json(&v).map_err(serde::de::Error::custom)
-}
-
 /// toml's errors span several lines (with a source excerpt); keep them on one.
 fn one_line(s: &str) -> String {
     s.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('|')).collect::<Vec<_>>().join(" ")
@@ -350,22 +331,18 @@ mod tests {
     use super::*;
 
     #[test]
-    fn configs_of_earlier_builds_move_their_task_settings_into_env() {
-        let old = serde_json::json!({
-            "run": {"seed": 4, "task": "cartpole"},
-            "adversary": {"cycles": 2, "max_foot_force": 12.0, "max_gravity_tilt": 0.2, "generic_bound": 1.5},
-            "env": {"timestep": 0.004, "adversary": {"max_gravity_tilt": 0.3}},
-        });
-        let c = TrainConfig::from_json(&old).unwrap();
+    fn a_sidecar_config_reads_back_and_unknown_keys_are_named() {
+        let c = TrainConfig::from_json(&serde_json::json!({
+            "run": {"seed": 4},
+            "adversary": {"cycles": 2},
+            "env": {"timestep": 0.004},
+        }))
+        .unwrap();
         assert_eq!((c.run.seed, c.adversary.cycles), (4, 2));
-        assert_eq!(c.env["task"].as_str(), Some("cartpole"));
-        let adv = c.env["adversary"].as_table().unwrap();
-        assert_eq!(adv["max_foot_force"].as_float(), Some(12.0));
-        assert_eq!(adv["generic_bound"].as_float(), Some(1.5));
-        // A value already in the new place wins over the moved one.
-        assert_eq!(adv["max_gravity_tilt"].as_float(), Some(0.3));
         assert_eq!(c.env["timestep"].as_float(), Some(0.004));
-        // Unknown learner keys are still errors, named.
+        // Settings that belong to the task are refused in the learner's tables, by name.
+        let bad = serde_json::json!({"adversary": {"max_foot_force": 12.0}});
+        assert!(TrainConfig::from_json(&bad).unwrap_err().contains("max_foot_force"));
         let bad = serde_json::json!({"adversary": {"cylces": 2}});
         assert!(TrainConfig::from_json(&bad).unwrap_err().contains("cylces"));
     }

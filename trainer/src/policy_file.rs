@@ -20,7 +20,6 @@ pub const VERSION: u32 = 1;
 #[serde(deny_unknown_fields)]
 pub struct Provenance {
     pub command: String,
-    #[serde(deserialize_with = "crate::config::deserialize_migrated")]
     pub config: crate::TrainConfig,
     pub seed: u64,
     pub iterations: usize,
@@ -40,9 +39,6 @@ pub struct PolicyMeta {
     /// repository, e.g. `assets/robots/topa_closed.toml`); none for tasks without a robot.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub robot: Option<String>,
-    /// What earlier builds wrote instead of `robot`: "closed" or "open" (kept so that their files load).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub model: Option<String>,
     pub obs_dim: usize,
     pub action_dim: usize,
     pub hidden: Vec<usize>,

@@ -15,10 +15,11 @@
 //! neither pulls the base nor stays pinned where it was.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Noise densities and variances of the filter (tunable in the sim2sim config).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct EstimatorConfig {
     /// Process noise on the base position, m²/s.

@@ -17,6 +17,7 @@ use mujoco_sys::{Data, Model};
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::error::Result;
@@ -29,7 +30,7 @@ use kinematics::LegKinematics;
 use sensors::{Delay, EncoderConfig, Noise3, NoiseConfig};
 
 /// Every realistic-sim2sim model; the default is the ideal simulator (all off).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema, Default)]
 #[serde(deny_unknown_fields, default)]
 pub struct Sim2SimConfig {
     /// The policy's linear velocity comes from the contact-aided Kalman filter (else: the simulator's).
@@ -40,26 +41,32 @@ pub struct Sim2SimConfig {
     pub accel: NoiseConfig,
     /// Orientation error of the IMU's attitude output (a small rotation per axis), rad.
     pub orientation: NoiseConfig,
+    /// Encoder quantisation and velocity noise.
     pub encoders: EncoderConfig,
+    /// Sensor and action delays.
     pub latency: LatencyConfig,
+    /// Torque–speed limits of the motors.
     pub torque_speed: TorqueSpeedConfig,
     /// Physics timestep for evaluations run in this mode, s (0 = the evaluation's own). The motor drivers run
     /// their PD at kHz rates; MuJoCo applies the PD once per physics step.
     pub timestep: f64,
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+/// The state estimator: whether it runs, its contact detection, and the filter's noise (flattened into this table).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema, Default)]
 #[serde(deny_unknown_fields, default)]
 pub struct EstimatorSettings {
+    /// Run the contact-aided Kalman filter and give the policy its velocity.
     pub enabled: bool,
     /// A foot with more normal force than this is in contact (the robot's contact detection), N.
     pub contact_threshold: f64,
+    /// The filter's noise densities and variances (keys of this same table).
     #[serde(flatten)]
     pub filter: EstimatorConfig,
 }
 
 /// Delays, in whole policy or physics steps.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema, Default)]
 #[serde(deny_unknown_fields, default)]
 pub struct LatencyConfig {
     /// The policy sees sensor readings this many policy steps old.
@@ -74,11 +81,14 @@ pub struct LatencyConfig {
 /// `full_torque_speed`, then falling linearly to zero at `no_load_speed` while the motor drives in the direction it
 /// turns; braking keeps the full torque. Per degree of freedom of a leg, in the robot's motor order (TopA: hip
 /// roll, yaw, pitch, knee, ankle), the same for both legs; rad/s at the output.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema, Default)]
 #[serde(deny_unknown_fields, default)]
 pub struct TorqueSpeedConfig {
+    /// Limit the motors' torque by their speed (false: MuJoCo's fixed force range).
     pub enabled: bool,
+    /// Output speed up to which each leg joint's motor has its full torque, rad/s.
     pub full_torque_speed: Vec<f64>,
+    /// Output speed at which each leg joint's motor has no torque left, rad/s.
     pub no_load_speed: Vec<f64>,
 }
 

@@ -5,6 +5,7 @@ use std::collections::VecDeque;
 
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Gaussian draw (Box–Muller on our seeded stream).
@@ -15,15 +16,16 @@ pub fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
 }
 
 /// White noise plus a bias that starts at N(0, `bias_initial`²) and walks with `bias_walk` per √s.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct NoiseConfig {
+    /// Corrupt this sensor's readings (false: exact).
     pub enabled: bool,
-    /// Standard deviation of the white noise, per sample.
+    /// Standard deviation of the white noise per sample, in the sensor's unit.
     pub white: f64,
-    /// Standard deviation of the initial bias.
+    /// Standard deviation of the initial bias, in the sensor's unit.
     pub bias_initial: f64,
-    /// Bias random walk, per √s.
+    /// Bias random walk, the sensor's unit per √s.
     pub bias_walk: f64,
 }
 
@@ -62,9 +64,10 @@ impl Noise3 {
 
 /// Motor encoders: positions quantised to `counts_per_rev` steps per output revolution; the driver's velocity
 /// estimate with Gaussian noise.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct EncoderConfig {
+    /// Quantise positions and add velocity noise (false: exact encoders).
     pub enabled: bool,
     /// Counts per output revolution (0 = no quantisation).
     pub counts_per_rev: f64,

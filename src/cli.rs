@@ -1,0 +1,289 @@
+//! The `topa` command line as data: every subcommand and flag, parsed by clap. The binary (src/main.rs) runs
+//! them; the documentation test parses every command the README and docs/ show with this same parser.
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand};
+
+use crate::eval_cmd;
+
+#[derive(Parser)]
+#[command(
+    name = "topa",
+    version,
+    about = "TopA closed-chain biped: MuJoCo 2.2 simulation, PPO training, sim2sim evaluation"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Cmd,
+}
+
+#[derive(Subcommand)]
+pub enum Cmd {
+    /// Summarise an MJCF model (sizes, equality constraints, joints, actuators, mass, timestep) or a robot spec
+    /// (motors and the joints they move, stand pose, ranges, mirror, groups, loops, the motor→joint map).
+    Info {
+        /// The MJCF file, or a robot spec (.toml, e.g. assets/robots/kestrel.toml).
+        model: PathBuf,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Performance benchmarks (ratios measured in one run).
+    #[command(subcommand)]
+    Bench(BenchCmd),
+    /// Training configs: the reference of every key, or one file fully resolved.
+    #[command(subcommand)]
+    Config(ConfigCmd),
+    /// Sim2sim evaluation of a policy on the closed model (the paper's experiments).
+    Eval {
+        #[command(subcommand)]
+        cmd: eval_cmd::EvalCmd,
+        #[command(flatten)]
+        common: eval_cmd::Common,
+    },
+    /// All three experiments for O, C and C+A, with the paper's numbers beside ours and the heatmaps.
+    Ablate {
+        /// Policies trained on the open (serial) model: files, or folders whose *.json policies are all taken
+        /// (several seeds: `--o a.json b.json` or `--o assets/policies/O`).
+        #[arg(long, num_args = 1..)]
+        o: Vec<PathBuf>,
+        /// Policies trained on the closed model (files or folders, as --o).
+        #[arg(long, num_args = 1..)]
+        c: Vec<PathBuf>,
+        /// Policies trained on the closed model with the cyclic adversary (files or folders, as --o).
+        #[arg(long, num_args = 1..)]
+        ca: Vec<PathBuf>,
+        /// The paper's full protocol (13 × 13 push grid, 100 noise runs per level) instead of the quick one.
+        #[arg(long)]
+        full: bool,
+        /// Push grid half-range, N (the paper's: 30). A stronger grid separates robust policies that the paper's
+        /// grid cannot (it nearly saturates for ours); the paper's numbers beside it are then for ±30 N.
+        #[arg(long)]
+        push_range: Option<f64>,
+        /// Push grid step, N (the paper's: 5; the quick protocol's: 10).
+        #[arg(long)]
+        push_step: Option<f64>,
+        /// Initial states each tracking command runs from (full protocol: 10, quick: 3): a policy that sometimes
+        /// stands still on a command from rest shows as a count, not as one reset's coin flip.
+        #[arg(long)]
+        tracking_starts: Option<usize>,
+        /// Instead of running policies: join the ablation.json files of earlier runs (same protocol and settings;
+        /// e.g. one per policy, run as each training ended) into one report with the groups' mean ± sd.
+        #[arg(long, num_args = 2.., conflicts_with_all = ["o", "c", "ca", "full", "push_range", "push_step", "tracking_starts"])]
+        merge: Vec<PathBuf>,
+        #[command(flatten)]
+        common: eval_cmd::Common,
+    },
+    /// Run a policy on the closed model with one command; record it to MCAP for Foxglove.
+    Play {
+        #[arg(long)]
+        policy: PathBuf,
+        /// Command v_x,v_y,w_z (m/s, m/s, rad/s), e.g. 0.5,0,0.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "0.5,0,0")]
+        command: Vec<f64>,
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+        /// Write an MCAP file (Foxglove: /tf, /scene, /joints, /motors, /base, /command, /contacts, /rewards).
+        #[arg(long)]
+        record: Option<PathBuf>,
+        #[command(flatten)]
+        video: eval_cmd::VideoArgs,
+        /// Constant torso force (F_x,F_y in N, torso frame) from the command's start, as in the push grid.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        push: Option<Vec<f64>>,
+        #[command(flatten)]
+        common: eval_cmd::Common,
+    },
+    /// Export a policy for the robot's computer: ONNX with the observation normaliser in the graph.
+    Export {
+        /// The policy (.json sidecar).
+        #[arg(long)]
+        policy: PathBuf,
+        /// Output ONNX file.
+        #[arg(long)]
+        onnx: PathBuf,
+        /// Also output `motor_targets` (nominal pose + action scale · clipped action, clamped to the motor range).
+        #[arg(long)]
+        motor_targets: bool,
+        /// Only check that an existing ONNX file was exported from this policy (no writing).
+        #[arg(long)]
+        check: bool,
+    },
+    /// Train a policy with PPO (symmetry loss, last-layer decay; --adversary for the cyclic adversary).
+    Train {
+        /// TOML preset: configs/paper.toml (the paper's table) or configs/cpu.toml (2-core machine).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// TopA's model: closed (the paper's C) or open (the serial baseline O); shorthand for --robot with
+        /// assets/robots/topa_closed.toml or topa_open.toml.
+        #[arg(long, conflicts_with = "robot")]
+        model: Option<topa_env::ModelKind>,
+        /// The robot to train: its spec (a TOML beside its MJCF), e.g. assets/robots/kestrel.toml.
+        #[arg(long)]
+        robot: Option<PathBuf>,
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Output folder (default runs/<model>[-adversary]-seed<S>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Run the paper's cyclic adversarial schedule (phase 1, then 2/3 × cycles).
+        #[arg(long)]
+        adversary: bool,
+        /// Threads for environments and networks (default: the config's; 0 = all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Override run.iterations (plain PPO only); with --resume, lengthens or shortens the run.
+        #[arg(long)]
+        iterations: Option<usize>,
+        /// Continue the run in this folder from its latest checkpoint.
+        #[arg(long, conflicts_with = "config")]
+        resume: Option<PathBuf>,
+        /// Start the policy from another run's checkpoint (folder or sidecar), e.g. C+A from C.
+        #[arg(long)]
+        init_from: Option<PathBuf>,
+        /// No progress bar; a status line every 10 iterations on stderr (for nohup logs).
+        #[arg(long)]
+        quiet: bool,
+    },
+}
+
+#[derive(Subcommand)]
+pub enum ConfigCmd {
+    /// Print the configuration reference as Markdown: every table and key with its type, default, the paper
+    /// preset's value and description (docs/configuration.md is its output).
+    Reference {
+        /// The paper preset whose values fill the paper column.
+        #[arg(long, default_value = "configs/paper.toml")]
+        paper: PathBuf,
+    },
+    /// Print a training config fully resolved as TOML: its `base` chain merged, every key with its value or default.
+    Show {
+        /// The config file, e.g. configs/cpu.toml or an experiment that starts from it with `base = "../cpu.toml"`.
+        file: PathBuf,
+    },
+}
+
+#[derive(Subcommand)]
+pub enum BenchCmd {
+    /// mj_step/s of our safe loop vs mujoco-testspeed, and a Data batch on 2 threads vs 1.
+    Physics {
+        /// The MJCF file (e.g. /usr/share/mujoco/model/humanoid/humanoid.xml).
+        model: PathBuf,
+        /// Steps per timed run.
+        #[arg(long, default_value_t = 20000)]
+        steps: usize,
+        /// Timed rounds per side (the best is kept).
+        #[arg(long, default_value_t = 3)]
+        rounds: usize,
+        /// Number of Data in the threaded batch.
+        #[arg(long, default_value_t = 8)]
+        batch: usize,
+        /// Skip the mujoco-testspeed comparison.
+        #[arg(long)]
+        no_testspeed: bool,
+    },
+    /// env-steps/s of the batched TopA env vs the bare physics bound, for batch sizes × thread counts.
+    Env {
+        #[arg(long, default_value = "closed")]
+        model: topa_env::ModelKind,
+        /// Batch sizes.
+        #[arg(long, value_delimiter = ',', default_value = "64,512,4096")]
+        envs: Vec<usize>,
+        /// Thread counts.
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<usize>,
+        /// Integrator: model (the MJCF's RK4), euler, rk4, implicit.
+        #[arg(long, default_value = "model")]
+        integrator: topa_env::IntegratorChoice,
+        /// Seconds per measurement.
+        #[arg(long, default_value_t = 2.0)]
+        seconds: f64,
+        /// Interleaved rounds (best kept).
+        #[arg(long, default_value_t = 3)]
+        rounds: usize,
+    },
+    /// Samples/s of a full PPO update (paper networks, 24 576 samples) at 1 and 2 threads, GFLOP/s, inference
+    /// share of an iteration, and the torch reference if given.
+    Ppo {
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<usize>,
+        /// Timed updates per thread count (best kept).
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        /// A Python with torch, to measure trainer/examples/torch_reference.py in the same run.
+        #[arg(long)]
+        torch_python: Option<String>,
+        /// Internal: run one measurement in this process and print JSON.
+        #[arg(long, hide = true)]
+        worker: bool,
+    },
+    /// Memory per env and start-up time of a batch, and the largest MuJoCo memory use (stack, contacts,
+    /// constraint rows) over walking, pushed and falling episodes against the MJCF's <size>.
+    Memory {
+        #[arg(long, default_value_t = 4096)]
+        envs: usize,
+        /// Policy steps per measured workload.
+        #[arg(long, default_value_t = 1000)]
+        steps: usize,
+        /// The policy that walks (and is pushed) in the first workload.
+        #[arg(long, default_value = "assets/policies/C/seed1.json")]
+        policy: PathBuf,
+    },
+    /// Training on N MPI ranks vs one rank with the same threads: samples/s, communication share and bytes per
+    /// iteration (needs a build with `--features mpi` and Open MPI's mpirun).
+    Mpi {
+        #[arg(long, default_value = "configs/cpu.toml")]
+        config: PathBuf,
+        #[arg(long, default_value_t = 2)]
+        ranks: usize,
+        /// Timed iterations per launch.
+        #[arg(long, default_value_t = 10)]
+        iterations: usize,
+        /// Untimed first iterations per launch.
+        #[arg(long, default_value_t = 2)]
+        warmup: usize,
+        /// Interleaved rounds (the fastest of each layout is kept).
+        #[arg(long, default_value_t = 2)]
+        rounds: usize,
+        #[arg(long, default_value = "mpirun")]
+        mpirun: String,
+    },
+    /// Milliseconds per frame of MuJoCo's headless renderer (and of GIF encoding).
+    Render {
+        #[arg(long, default_value_t = 640)]
+        width: usize,
+        #[arg(long, default_value_t = 480)]
+        height: usize,
+        #[arg(long, default_value_t = 200)]
+        frames: usize,
+        /// fast (the videos' default) or high (multisampling, shadows, reflections).
+        #[arg(long, default_value = "fast")]
+        quality: crate::video::QualityArg,
+    },
+    /// Real training iterations of a preset: samples/s, the collect / inference / update split, and their ratio
+    /// to the bare physics bound measured in the same run.
+    Train {
+        #[arg(long, default_value = "configs/cpu.toml")]
+        config: PathBuf,
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<usize>,
+        /// Override the preset's number of envs.
+        #[arg(long)]
+        envs: Option<usize>,
+        /// Timed iterations per thread count.
+        #[arg(long, default_value_t = 6)]
+        iterations: usize,
+        /// Untimed iterations first.
+        #[arg(long, default_value_t = 2)]
+        warmup: usize,
+        /// Override the preset's integrator (euler, rk4, model, implicit).
+        #[arg(long)]
+        integrator: Option<topa_env::IntegratorChoice>,
+        /// Interleaved rounds (the fastest of each thread count is kept).
+        #[arg(long, default_value_t = 2)]
+        rounds: usize,
+        #[arg(long, hide = true)]
+        worker: bool,
+    },
+}
