@@ -145,12 +145,12 @@ pub fn headline_markdown(groups: &[Group], paper: &PaperTables, how: Resampling)
     }
     let _ = writeln!(
         s,
-        "\nmean over each group's policies [95 % confidence interval: stratified bootstrap over the seeds{}, \
-         {} replicates]; cells: ours (paper). Tracking falls and stand-stills: runs (each of the six commands from \
+        "\nmean over each group's policies [95 % confidence interval: bootstrap over the group's seeds{}, {} \
+         replicates; noise success redrawn from its runs]; cells: ours (paper). Tracking falls and stand-stills: runs (each of the six commands from \
          each initial state) that fell, or whose mean velocity along the command stayed below a quarter of it, over \
          all the group's policies; worst component MAE: the largest of the three per-component errors (whole \
          window, mean over the starts) over the six commands, per policy.",
-        if how.tasks { " and the grid's cells (a sample of the paper's grid)" } else { " within each push-grid cell" },
+        if how.tasks { " and the grid's cells (a sample of the paper's grid)" } else { "" },
         intervals::REPLICATES
     );
     s

@@ -116,7 +116,7 @@ impl MetricsWriter {
         };
         crate::tensorfile::write_atomic(&csv_path, format!("{header}\n{kept}").as_bytes())?;
         let csv = OpenOptions::new().append(true).open(&csv_path)?;
-        let tb = tboard::EventWriter::create(dir.join("tb")).map_err(|e| anyhow::anyhow!("TensorBoard writer: {e}"))?;
+        let tb = open_events(&dir.join("tb"), resume_iteration)?;
         Ok(MetricsWriter { csv_path, csv, columns, perturbation_columns, tb })
     }
 
@@ -165,6 +165,43 @@ impl MetricsWriter {
         self.tb.flush().map_err(|e| anyhow::anyhow!("TensorBoard: {e}"))?;
         Ok(())
     }
+}
+
+/// A new event file under `tb`. On resume, the records of the earlier files up to the checkpoint's iteration are
+/// carried into it and the earlier files removed: iterations after the checkpoint are about to be redone, and
+/// TensorBoard (or any other reader) would otherwise show them twice. The new file is complete before an old one
+/// goes, and records are keyed by (step, tag), so an interrupted rewrite leaves no duplicate either.
+fn open_events(tb: &Path, resume_iteration: Option<usize>) -> Result<tboard::EventWriter<std::fs::File>> {
+    let te = |e: tboard::Error| anyhow::anyhow!("TensorBoard event file in {}: {e}", tb.display());
+    let mut old: Vec<PathBuf> = match (resume_iteration, std::fs::read_dir(tb)) {
+        (Some(_), Ok(entries)) => entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("events.out.tfevents")))
+            .collect(),
+        _ => Vec::new(),
+    };
+    old.sort();
+    let mut kept: std::collections::BTreeMap<(i64, String), tboard::tensorboard::Event> = Default::default();
+    for f in &old {
+        let file = std::fs::File::open(f).with_context(|| format!("cannot read {}", f.display()))?;
+        // A run killed mid-write leaves a torn last record: what precedes it is whole (CRC-checked).
+        for event in tboard::SummaryReader::new(std::io::BufReader::new(file)).map_while(|e| e.ok()) {
+            let Some(tboard::tensorboard::event::What::Summary(summary)) = &event.what else { continue };
+            let tag = summary.value.first().map_or(String::new(), |v| v.tag.clone());
+            if event.step as usize <= resume_iteration.unwrap_or(0) {
+                kept.insert((event.step, tag), event);
+            }
+        }
+    }
+    let mut writer = tboard::EventWriter::create(tb).map_err(te)?;
+    for event in kept.into_values() {
+        writer.write_event(event).map_err(te)?;
+    }
+    writer.flush().map_err(te)?;
+    for f in old.iter().filter(|f| Some(*f) != writer.filename()) {
+        std::fs::remove_file(f).with_context(|| format!("cannot remove {}", f.display()))?;
+    }
+    Ok(writer)
 }
 
 fn is_episode_column(name: &str) -> bool {
