@@ -95,6 +95,17 @@ pub enum Cmd {
         #[command(flatten)]
         common: eval_cmd::Common,
     },
+    /// Training dashboards: several runs' metrics.csv on one figure, seeds of a group as mean and min–max band.
+    Plot {
+        /// Run folders (or metrics.csv files), each drawn as its own group.
+        runs: Vec<PathBuf>,
+        /// A group of runs drawn together, NAME=RUN,RUN… (e.g. C=runs/C-s1,runs/C-s2,runs/C-s3); repeatable.
+        #[arg(long)]
+        group: Vec<String>,
+        /// Output PNG (an SVG is written beside it).
+        #[arg(long, default_value = "out/dashboard.png")]
+        out: PathBuf,
+    },
     /// Export a policy for the robot's computer: ONNX with the observation normaliser in the graph.
     Export {
         /// The policy (.json sidecar).

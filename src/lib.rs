@@ -5,6 +5,7 @@
 pub mod bench;
 pub mod cli;
 pub mod config_reference;
+pub mod dashboard;
 pub mod eval;
 pub mod eval_cmd;
 pub mod export;

@@ -46,6 +46,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             extent.tracking_starts = tracking_starts.unwrap_or(extent.tracking_starts);
             eval_cmd::run_ablate(o, c, ca, extent, common)
         }
+        Cmd::Plot { runs, group, out } => {
+            if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir)?;
+            }
+            let layout = topa::dashboard::plot(&runs, &group, &out)?;
+            println!("{} panels → {} (and {})", layout.len(), out.display(), out.with_extension("svg").display());
+            Ok(())
+        }
         Cmd::Export { policy, onnx, motor_targets, check } => {
             if check {
                 topa::export::check(&onnx, &policy)?;

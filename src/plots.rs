@@ -1,16 +1,16 @@
-//! PNG/SVG figures: the training curve, and the paper's push heatmaps. Text is drawn with the bundled DejaVu Sans
+//! PNG/SVG figures: the paper's push heatmaps, and the training dashboard's entry point. Text is drawn with the bundled DejaVu Sans
 //! (assets/fonts), so plots render the same on any machine, without system fonts.
 
 use std::path::Path;
 use std::sync::Once;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
 static FONT: Once = Once::new();
 
-fn register_font() {
+pub(crate) fn register_font() {
     FONT.call_once(|| {
         let bytes: &'static [u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
         if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_err() {
@@ -24,71 +24,15 @@ fn whole_number(v: &f64) -> String {
     format!("{v:.0}")
 }
 
-fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+pub(crate) fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow::anyhow!("plotting: {e:?}")
 }
 
-/// Training curves from `metrics.csv`: mean episode return and length per iteration (episodes that ended in
-/// that iteration), with the adversary phases shaded.
+/// A run's dashboard (`dashboard.rs`) from its `metrics.csv`: `learning_curve.png` and `.svg`.
 pub fn learning_curve(csv: &Path, png: &Path) -> Result<()> {
-    register_font();
-    let (header, rows) = trainer::metrics::read_csv(csv)?;
-    let col = |name: &str| {
-        header.iter().position(|h| h == name).with_context(|| format!("{} has no column {name}", csv.display()))
-    };
-    let (it, ret, len, phase) = (col("iteration")?, col("mean_return")?, col("mean_length")?, col("phase")?);
-    let episodes = col("episodes")?;
-    let pts = |c: usize| -> Vec<(f64, f64)> {
-        rows.iter().filter(|r| r[c].is_finite() && r[episodes] > 0.0).map(|r| (r[it], r[c])).collect()
-    };
-    let (returns, lengths) = (pts(ret), pts(len));
-    anyhow::ensure!(!returns.is_empty(), "{} has no finished episodes yet", csv.display());
-    let root = BitMapBackend::new(png, (1200, 800)).into_drawing_area();
-    root.fill(&WHITE).map_err(err)?;
-    let panels = root.split_evenly((2, 1));
-    let x_max = rows.iter().map(|r| r[it]).fold(1.0, f64::max);
-    let adversary: Vec<f64> = rows.iter().filter(|r| r[phase] == 2.0).map(|r| r[it]).collect();
-    draw_series(&panels[0], "Mean episode return", &returns, x_max, &adversary, &BLUE)?;
-    draw_series(&panels[1], "Mean episode length (policy steps)", &lengths, x_max, &adversary, &RED)?;
-    root.present().map_err(err)?;
-    Ok(())
-}
-
-fn draw_series(
-    area: &DrawingArea<BitMapBackend, Shift>,
-    title: &str,
-    pts: &[(f64, f64)],
-    x_max: f64,
-    shaded: &[f64],
-    color: &RGBColor,
-) -> Result<()> {
-    let (lo, hi) = pts.iter().fold((f64::MAX, f64::MIN), |(l, h), p| (l.min(p.1), h.max(p.1)));
-    let pad = ((hi - lo) * 0.05).max(1e-6);
-    let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 24))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..x_max, (lo - pad)..(hi + pad))
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("iteration")
-        .x_label_formatter(&whole_number)
-        .y_label_formatter(&whole_number)
-        .label_style(("sans-serif", 16))
-        .draw()
-        .map_err(err)?;
-    // Phase-2 iterations (adversary learning, policy frozen) in grey.
-    chart
-        .draw_series(
-            shaded
-                .iter()
-                .map(|&x| Rectangle::new([(x - 1.0, lo - pad), (x, hi + pad)], RGBColor(225, 225, 225).filled())),
-        )
-        .map_err(err)?;
-    chart.draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2))).map_err(err)?;
-    Ok(())
+    let run = crate::dashboard::Run::load(csv)?;
+    let group = crate::dashboard::Group { name: run.name.clone(), runs: vec![run] };
+    crate::dashboard::render(&[group], png).map(|_| ())
 }
 
 /// One push-grid heatmap per policy, side by side, with a shared colour bar (time to fall, s), as PNG and SVG.
