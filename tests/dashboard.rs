@@ -4,7 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use topa::dashboard::{self, Group, Run};
-use topa::train_cmd::{run, TrainArgs};
+
+mod common;
 
 const CONFIG: &str = r#"
 base = "CPU"
@@ -25,20 +26,7 @@ fn short_run(dir: &Path) -> PathBuf {
     let config = dir.join("short.toml");
     std::fs::write(&config, CONFIG.replace("CPU", &cpu.display().to_string())).unwrap();
     let out = dir.join("run");
-    run(TrainArgs {
-        config: Some(config),
-        model: None,
-        robot: None,
-        seed: None,
-        out: Some(out.clone()),
-        adversary: false,
-        threads: None,
-        iterations: None,
-        resume: None,
-        init_from: None,
-        quiet: true,
-    })
-    .unwrap();
+    common::cli_train(Some(&config), &out, false, None);
     out
 }
 

@@ -3,8 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
+mod common;
+
 use topa::config_reference::leaf_keys;
-use topa::train_cmd::{run, TrainArgs};
 use topa_env::{EnvConfig, TaskKind};
 use trainer::TrainConfig;
 
@@ -57,20 +58,7 @@ fn a_freshly_trained_policy_records_every_env_key() {
     let config = dir.join("sparse.toml");
     std::fs::write(&config, SPARSE).unwrap();
     let out = dir.join("run");
-    run(TrainArgs {
-        config: Some(config),
-        model: None,
-        robot: None,
-        seed: None,
-        out: Some(out.clone()),
-        adversary: false,
-        threads: Some(1),
-        iterations: None,
-        resume: None,
-        init_from: None,
-        quiet: true,
-    })
-    .unwrap();
+    common::cli_train(Some(&config), &out, false, None);
 
     assert_full("policy.json provenance", &env_of_json(&out.join("policy.json"), "/provenance/config"));
     let sidecar = trainer::checkpoint::latest(&out.join("checkpoints")).unwrap();

@@ -5,9 +5,9 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use topa::train_cmd::{run, TrainArgs};
+mod common;
 
-const CONFIG: &str = r#"
+const RUN: &str = r#"
 [run]
 num_envs = 8
 steps_per_env = 16
@@ -15,16 +15,6 @@ iterations = 12
 threads = 1
 checkpoint_every = 5
 keep_checkpoints = 0
-
-[ppo]
-minibatches = 2
-
-[network]
-actor_hidden = [8]
-critic_hidden = [8]
-
-[env]
-task = "cartpole"
 "#;
 
 /// TFRecord's masked CRC-32C (Castagnoli).
@@ -131,20 +121,7 @@ fn scalars(tb: &Path) -> BTreeMap<(String, i64), Vec<f32>> {
 }
 
 fn train(config: &Path, out: &Path, resume: bool, iterations: Option<usize>) {
-    run(TrainArgs {
-        config: (!resume).then(|| config.to_path_buf()),
-        model: None,
-        robot: None,
-        seed: None,
-        out: (!resume).then(|| out.to_path_buf()),
-        adversary: false,
-        threads: None,
-        iterations,
-        resume: resume.then(|| out.to_path_buf()),
-        init_from: None,
-        quiet: true,
-    })
-    .unwrap();
+    common::cli_train((!resume).then_some(config), out, resume, iterations);
 }
 
 #[test]
@@ -152,7 +129,7 @@ fn a_killed_and_resumed_run_shows_each_step_once_with_the_straight_values() {
     let dir = std::env::temp_dir().join(format!("topa-tensorboard-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let config = dir.join("cartpole.toml");
-    std::fs::write(&config, CONFIG).unwrap();
+    std::fs::write(&config, format!("{RUN}{}", common::TINY_CARTPOLE)).unwrap();
 
     let straight = dir.join("straight");
     train(&config, &straight, false, Some(20));

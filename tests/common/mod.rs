@@ -39,3 +39,34 @@ pub fn cartpole_trainer(cfg: &TrainConfig, with_adversary: bool) -> Trainer {
         .collect();
     Trainer::new(cfg.clone(), Box::new(BatchEnv::new(tasks, 1).unwrap()), with_adversary).unwrap()
 }
+
+/// `topa train` as the CLI runs it: a new run from `config` into `out`, or (`resume`) the run in `out` continued.
+pub fn cli_train(config: Option<&std::path::Path>, out: &std::path::Path, resume: bool, iterations: Option<usize>) {
+    topa::train_cmd::run(topa::train_cmd::TrainArgs {
+        config: config.map(std::path::Path::to_path_buf),
+        model: None,
+        robot: None,
+        seed: None,
+        out: (!resume).then(|| out.to_path_buf()),
+        adversary: false,
+        threads: None,
+        iterations,
+        resume: resume.then(|| out.to_path_buf()),
+        init_from: None,
+        quiet: true,
+    })
+    .unwrap();
+}
+
+/// A cart-pole run small enough for seconds, as a config file's text (`[run]` left to the caller's additions).
+pub const TINY_CARTPOLE: &str = r#"
+[ppo]
+minibatches = 2
+
+[network]
+actor_hidden = [8]
+critic_hidden = [8]
+
+[env]
+task = "cartpole"
+"#;
