@@ -477,6 +477,12 @@ where
     Ok([px.start, py.start, px.end, py.end])
 }
 
+/// A run's own dashboard from its `metrics.csv`: `learning_curve.png` and `.svg` in the run folder.
+pub fn learning_curve(csv: &Path, png: &Path) -> Result<()> {
+    let run = Run::load(csv)?;
+    render(&[Group { name: run.name.clone(), runs: vec![run] }], png).map(|_| ())
+}
+
 /// `topa plot`: runs given alone are one group each; `--group NAME=RUN,RUN…` puts seeds together.
 pub fn plot(runs: &[PathBuf], groups: &[String], out: &Path) -> Result<Layout> {
     let mut all: Vec<Group> = Vec::new();

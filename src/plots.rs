@@ -1,4 +1,4 @@
-//! PNG/SVG figures: the paper's push heatmaps, and the training dashboard's entry point. Text is drawn with the bundled DejaVu Sans
+//! PNG/SVG figures: the paper's push heatmaps, and the font and error helpers every figure uses. Text is drawn with the bundled DejaVu Sans
 //! (assets/fonts), so plots render the same on any machine, without system fonts.
 
 use std::path::Path;
@@ -26,13 +26,6 @@ fn whole_number(v: &f64) -> String {
 
 pub(crate) fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow::anyhow!("plotting: {e:?}")
-}
-
-/// A run's dashboard (`dashboard.rs`) from its `metrics.csv`: `learning_curve.png` and `.svg`.
-pub fn learning_curve(csv: &Path, png: &Path) -> Result<()> {
-    let run = crate::dashboard::Run::load(csv)?;
-    let group = crate::dashboard::Group { name: run.name.clone(), runs: vec![run] };
-    crate::dashboard::render(&[group], png).map(|_| ())
 }
 
 /// One push-grid heatmap per policy, side by side, with a shared colour bar (time to fall, s), as PNG and SVG.

@@ -355,7 +355,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
     }
     let Some(metrics) = metrics else { return Ok(()) };
     let png = out.join("learning_curve.png");
-    if let Err(e) = crate::plots::learning_curve(metrics.csv_path(), &png) {
+    if let Err(e) = crate::dashboard::learning_curve(metrics.csv_path(), &png) {
         log::warn!("no learning curve: {e:#}");
     }
     println!(

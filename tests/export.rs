@@ -70,8 +70,9 @@ fn onnx_matches_our_forward_pass_for_every_bundled_policy() {
     let dir = tempdir("match");
     let obs = observations();
     let rows = obs.len() / 42;
-    for name in ["O", "C", "CA"] {
-        let file = dir.join(format!("{name}.onnx"));
+    let seeds = ["O/seed1", "O/seed2", "C/seed1", "C/seed2", "C/seed3", "CA/seed1", "CA/seed2", "CA/seed3"];
+    for name in seeds {
+        let file = dir.join(format!("{}.onnx", name.replace('/', "_")));
         topa::export::export(&policy(name), &file, true).unwrap();
         topa::export::check(&file, &policy(name)).unwrap();
         let out = run_onnx(&file, &obs);
@@ -163,5 +164,24 @@ fn a_second_robot_exports_with_its_own_layout() {
     let meta_nominal: Vec<f64> = serde_json::from_str(&meta("nominal_motor_positions_rad")).unwrap();
     assert_eq!(meta_nominal, nominal);
     assert!((nominal[5] - (-0.35)).abs() < 1e-3, "inner crank at the stand: {}", nominal[5]);
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// `topa export` names the graph's shapes from the robot's own layout (Kestrel: 48 observations, 12 motors).
+#[test]
+fn the_export_message_gives_the_robots_own_shapes() {
+    let dir = tempdir("message");
+    let onnx = dir.join("k.onnx");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_topa"))
+        .args(["export", "--policy"])
+        .arg(policy("kestrel/seed1"))
+        .arg("--onnx")
+        .arg(&onnx)
+        .arg("--motor-targets")
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(text.contains("obs[batch, 48] → action[batch, 12], motor_targets[batch, 12]"), "{text}");
     std::fs::remove_dir_all(dir).ok();
 }
