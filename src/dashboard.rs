@@ -63,7 +63,7 @@ impl Run {
     /// A column's values, NaN where the iteration ended no episode (for episode statistics).
     fn values(&self, name: &str) -> Vec<f64> {
         let Some(v) = self.col(name) else { return Vec::new() };
-        let episodic = name.starts_with("rew_") || ["mean_return", "mean_length", "time_out_share"].contains(&name);
+        let episodic = trainer::metrics::is_episode_column(name);
         let episodes = &self.columns["episodes"];
         v.iter().zip(episodes).map(|(&x, &e)| if episodic && e <= 0.0 { f64::NAN } else { x }).collect()
     }
@@ -94,28 +94,21 @@ pub fn panels(groups: &[Group]) -> Vec<Panel> {
     let mut add = |title: &str, column: &str, reference: Option<f64>| {
         out.push(Panel { title: title.into(), column: column.into(), reference });
     };
-    for (title, column) in [
-        ("mean episode return", "mean_return"),
-        ("mean episode length (policy steps)", "mean_length"),
-        ("value loss", "policy_value_loss"),
-        ("surrogate loss", "policy_surrogate"),
-        ("symmetry loss", "policy_symmetry_loss"),
+    // Reading order; the KL panel carries the run's target as a line.
+    for (title, column, reference) in [
+        ("mean episode return", "mean_return", None),
+        ("mean episode length (policy steps)", "mean_length", None),
+        ("value loss", "policy_value_loss", None),
+        ("surrogate loss", "policy_surrogate", None),
+        ("symmetry loss", "policy_symmetry_loss", None),
+        ("KL (line: target)", "policy_kl", kl),
+        ("learning rate", "policy_lr", None),
+        ("entropy", "policy_entropy", None),
+        ("action std", "action_std", None),
+        ("samples/s", "fps", None),
     ] {
         if has(column) {
-            add(title, column, None);
-        }
-    }
-    if has("policy_kl") {
-        add("KL (line: target)", "policy_kl", kl);
-    }
-    for (title, column) in [
-        ("learning rate", "policy_lr"),
-        ("entropy", "policy_entropy"),
-        ("action std", "action_std"),
-        ("samples/s", "fps"),
-    ] {
-        if has(column) {
-            add(title, column, None);
+            add(title, column, reference);
         }
     }
     let mut names: Vec<String> = runs.iter().flat_map(|r| r.columns.keys().cloned()).collect();

@@ -9,28 +9,17 @@ use topa::config_reference::leaf_keys;
 use topa_env::{EnvConfig, TaskKind};
 use trainer::TrainConfig;
 
-/// A two-iteration cart-pole run whose `[env]` says only which task: everything else is left to the defaults.
-const SPARSE: &str = r#"
+/// A two-iteration cart-pole run whose `[env]` says only which task (and one σ, after `common::TINY_CARTPOLE`):
+/// everything else is left to the defaults.
+const RUN: &str = r#"
 [run]
 num_envs = 8
 steps_per_env = 16
 iterations = 2
 threads = 1
 checkpoint_every = 1
-
-[ppo]
-minibatches = 2
-
-[network]
-actor_hidden = [8]
-critic_hidden = [8]
-
-[env]
-task = "cartpole"
-
-[env.rewards]
-sigma_yaw = 0.3
 "#;
+const SIGMA: &str = "\n[env.rewards]\nsigma_yaw = 0.3\n";
 
 fn env_of_json(path: &Path, pointer: &str) -> toml::Table {
     let text = std::fs::read_to_string(path).unwrap();
@@ -56,7 +45,7 @@ fn a_freshly_trained_policy_records_every_env_key() {
     let dir: PathBuf = std::env::temp_dir().join(format!("topa-sidecar-config-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let config = dir.join("sparse.toml");
-    std::fs::write(&config, SPARSE).unwrap();
+    std::fs::write(&config, format!("{RUN}{}{SIGMA}", common::TINY_CARTPOLE)).unwrap();
     let out = dir.join("run");
     common::cli_train(Some(&config), &out, false, None);
 

@@ -27,10 +27,9 @@ pub struct Resolution {
     pub quick: bool,
 }
 
+const TOO_FEW: &str = "undecided: fewer than 5 seeds in a group, too few for a bootstrap interval to decide";
+
 impl Resolution {
-    fn too_few(&self) -> &'static str {
-        "undecided: fewer than 5 seeds in a group, too few for a bootstrap interval to decide"
-    }
     fn undecided(&self) -> &'static str {
         if self.quick {
             "undecided: the 95 % CI includes zero; the quick protocol is too coarse to decide, run `--full`"
@@ -57,7 +56,7 @@ fn improvement(statement: String, x: &Scores, y: &Scores, how: Resampling, res: 
             signed(d.hi, digits),
             p.show(2)
         ),
-        undecided: if enough { res.undecided() } else { res.too_few() },
+        undecided: if enough { res.undecided() } else { TOO_FEW },
     }
 }
 

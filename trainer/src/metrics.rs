@@ -204,7 +204,8 @@ fn open_events(tb: &Path, resume_iteration: Option<usize>) -> Result<tboard::Eve
     Ok(writer)
 }
 
-fn is_episode_column(name: &str) -> bool {
+/// Columns that describe the episodes that ended in an iteration (meaningless when none did).
+pub fn is_episode_column(name: &str) -> bool {
     name.starts_with("rew_") || ["mean_return", "mean_length", "time_out_share"].contains(&name)
 }
 
