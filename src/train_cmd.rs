@@ -108,18 +108,6 @@ fn command_line() -> String {
     std::iter::once("topa".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ")
 }
 
-fn machine() -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .find(|l| l.starts_with("model name"))
-                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown CPU".into());
-    format!("{} × {cpu}", std::thread::available_parallelism().map_or(1, |n| n.get()))
-}
-
 /// `cfg` with its `[env]` table resolved: every key of the task's config, the defaults included, so a record of
 /// the run says exactly what it ran with (and keeps saying it when a later build changes a default).
 pub fn with_resolved_env(cfg: &TrainConfig) -> Result<TrainConfig> {
@@ -153,7 +141,8 @@ pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> 
             samples: t.samples,
             wall_time_s: t.wall_time_s,
             with_adversary: t.adversary.is_some(),
-            trained_on: format!("{}, {}", crate::today(), machine()),
+            trained_on: format!("{}, {}", crate::today(), trainer::segments::this_machine()),
+            segments: t.segments.clone(),
         },
     };
     policy_file::save(&out.join("policy"), &t.policy.ac.actor, &t.policy.normalizer, meta)

@@ -56,6 +56,7 @@ fn constant_policy(dir: &Path, name: &str, model: ModelKind, action: [f32; N_MOT
             wall_time_s: 0.0,
             with_adversary: false,
             trained_on: "test".into(),
+            segments: vec![],
         },
     };
     policy_file::save(&dir.join(name), &mlp, &Normalizer::new(42, None), meta).unwrap()

@@ -162,6 +162,26 @@ impl Model {
         unsafe { self.raw_mut().opt.integrator = integrator as i32 };
     }
 
+    pub fn solver_iterations(&self) -> usize {
+        self.raw().opt.iterations.max(0) as usize
+    }
+
+    pub fn solver_tolerance(&self) -> f64 {
+        self.raw().opt.tolerance
+    }
+
+    /// The constraint solver's iteration limit (`opt.iterations`).
+    pub fn set_solver_iterations(&mut self, iterations: usize) {
+        // SAFETY: a solver option, not a size: nothing allocated depends on it.
+        unsafe { self.raw_mut().opt.iterations = iterations.clamp(1, i32::MAX as usize) as i32 };
+    }
+
+    /// The constraint solver's tolerance (`opt.tolerance`): it stops once the cost improves by less.
+    pub fn set_solver_tolerance(&mut self, tolerance: f64) {
+        // SAFETY: a solver option, not a size.
+        unsafe { self.raw_mut().opt.tolerance = tolerance };
+    }
+
     /// Whether `mj_step`/`mj_forward` compute the sensors (`sensordata`).
     /// Store the constraint Jacobian dense (nefc × nv) whatever the model's size (`Data::efc_jacobian`).
     pub fn set_dense_jacobian(&mut self) {

@@ -223,6 +223,9 @@ impl PolicyRunner {
         let mut c = train.for_evaluation();
         c.robot = self.robot.path.to_string_lossy().into_owned();
         c.integrator = s.integrator;
+        // The evaluation model is the MJCF's: training's solver shortcuts stay in training.
+        c.solver_iterations = None;
+        c.solver_tolerance = None;
         c.timestep = s.timestep();
         c.sim2sim = s.sim2sim.clone();
         let dec = self.policy.meta.policy_dt / c.timestep;

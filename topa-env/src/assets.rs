@@ -48,6 +48,12 @@ pub fn topa_batch_from(
     if let Some(i) = cfg.integrator() {
         Arc::make_mut(&mut model).set_integrator(i);
     }
+    if let Some(n) = cfg.solver_iterations {
+        Arc::make_mut(&mut model).set_solver_iterations(n);
+    }
+    if let Some(t) = cfg.solver_tolerance {
+        Arc::make_mut(&mut model).set_solver_tolerance(t);
+    }
     Arc::make_mut(&mut model).set_timestep(cfg.timestep)?;
     Arc::make_mut(&mut model).set_sensors_enabled(cfg.needs_sensors());
     let cfg = Arc::new(cfg.clone());

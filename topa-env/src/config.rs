@@ -26,6 +26,12 @@ pub struct EnvConfig {
     /// targets), "euler" is ~3.5× faster per step (loop error up to ~1e-2 rad on hard-stop impacts), "rk4",
     /// "implicit".
     pub integrator: IntegratorChoice,
+    /// Override of the MJCF's constraint-solver iterations (none: the model's; TopA's MJCF has 50).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solver_iterations: Option<usize>,
+    /// Override of the MJCF's solver tolerance (none: the model's; TopA's MJCF has 1e-10).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solver_tolerance: Option<f64>,
     /// Episode length before a time-out, s.
     pub episode_length_s: f64,
     /// Motor target = nominal + action_scale · action, rad per unit action.
@@ -145,6 +151,8 @@ impl Default for EnvConfig {
             timestep: 0.005,
             decimation: 4,
             integrator: IntegratorChoice::Model,
+            solver_iterations: None,
+            solver_tolerance: None,
             episode_length_s: 20.0,
             action_scale: 0.25,
             action_clip: 10.0,
@@ -484,6 +492,12 @@ impl EnvConfig {
         check_positive("timestep", self.timestep)?;
         if self.decimation == 0 {
             return Err(EnvError::Config("decimation must be at least 1".into()));
+        }
+        if self.solver_iterations == Some(0) {
+            return Err(EnvError::Config("solver_iterations must be at least 1 (leave it out for the model's)".into()));
+        }
+        if let Some(t) = self.solver_tolerance {
+            check_positive("solver_tolerance", t)?;
         }
         check_positive("episode_length_s", self.episode_length_s)?;
         check_positive("action_scale", self.action_scale)?;

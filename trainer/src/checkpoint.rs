@@ -55,6 +55,9 @@ pub struct Sidecar {
     pub ranks: usize,
     #[serde(default)]
     pub rank_rngs: Vec<Vec<u64>>,
+    /// `wall_time_s` by machine and thread count (absent in checkpoints written before it was recorded).
+    #[serde(default)]
+    pub segments: Vec<crate::segments::Segment>,
 }
 
 fn one_rank() -> usize {
@@ -165,6 +168,7 @@ pub fn save(t: &Trainer, dir: &Path, command: &str, keep: usize) -> Result<PathB
         command: command.to_string(),
         ranks,
         rank_rngs,
+        segments: t.segments.clone(),
     };
     write_atomic(&side_path, serde_json::to_string_pretty(&side)?.as_bytes())?;
     let latest = Latest { sidecar: format!("{stem}.json"), iteration: t.iteration };
@@ -275,6 +279,7 @@ pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
     t.iteration = side.iteration;
     t.samples = side.samples;
     t.wall_time_s = side.wall_time_s;
+    t.segments = side.segments.clone();
     Ok(())
 }
 
@@ -299,5 +304,6 @@ pub fn init_policy_from(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<(
     t.iteration = side.iteration.min(phase1);
     t.samples = side.samples;
     t.wall_time_s = side.wall_time_s;
+    t.segments = side.segments.clone();
     Ok(())
 }

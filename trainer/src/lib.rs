@@ -15,6 +15,7 @@ pub mod policy_file;
 pub mod ppo;
 pub mod rng;
 pub mod schedule;
+pub mod segments;
 pub mod storage;
 pub mod symmetry;
 pub mod tensorfile;

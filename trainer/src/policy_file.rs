@@ -28,6 +28,9 @@ pub struct Provenance {
     pub with_adversary: bool,
     /// When and where it was trained (free text, e.g. "2026-11-23, 2-core AMD EPYC").
     pub trained_on: String,
+    /// `wall_time_s` by machine and thread count, a forked run's source run first (empty in older files).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub segments: Vec<crate::segments::Segment>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

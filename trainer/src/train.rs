@@ -72,6 +72,10 @@ pub struct Trainer {
     pub iteration: usize,
     pub samples: u64,
     pub wall_time_s: f64,
+    /// `wall_time_s` by machine and thread count (a resumed or forked run keeps its earlier stretches).
+    pub segments: Vec<crate::segments::Segment>,
+    /// This process's machine and worker threads, for `segments`.
+    host: (String, usize),
     /// The ranks this run is spread over (`Single` unless launched under MPI).
     pub comm: Rc<dyn Comm>,
     policy_rollout: Rollout,
@@ -140,6 +144,8 @@ impl Trainer {
             iteration: 0,
             samples: 0,
             wall_time_s: 0.0,
+            segments: Vec::new(),
+            host: (crate::segments::this_machine(), rayon::current_num_threads()),
             comm: Rc::new(Single),
         };
         t.env.reset().context("resetting the environments")?;
@@ -197,6 +203,7 @@ impl Trainer {
         self.iteration += 1;
         let elapsed = start.elapsed().as_secs_f64();
         self.wall_time_s += elapsed;
+        crate::segments::record(&mut self.segments, &self.host.0, self.host.1, self.iteration - 1, elapsed);
         let std = self.policy.ac.std()?;
         let (episodes, mean_step_reward) = self.all_ranks_episodes(mean_step_reward);
         Ok(Some(IterationLog {

@@ -91,6 +91,8 @@ impl TopaEnv {
         if model.timestep() != cfg.timestep
             || integrator.is_some_and(|i| i != model.integrator())
             || model.sensors_enabled() != cfg.needs_sensors()
+            || cfg.solver_iterations.is_some_and(|n| n != model.solver_iterations())
+            || cfg.solver_tolerance.is_some_and(|t| t != model.solver_tolerance())
         {
             let m = Arc::make_mut(&mut model);
             m.set_timestep(cfg.timestep)?;
@@ -98,6 +100,12 @@ impl TopaEnv {
                 m.set_integrator(i);
             }
             m.set_sensors_enabled(cfg.needs_sensors());
+            if let Some(n) = cfg.solver_iterations {
+                m.set_solver_iterations(n);
+            }
+            if let Some(t) = cfg.solver_tolerance {
+                m.set_solver_tolerance(t);
+            }
         }
         let nominal = Arc::new(Nominal {
             body_mass: model.body_mass().to_vec(),
