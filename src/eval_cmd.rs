@@ -8,7 +8,10 @@ use clap::{Args, Subcommand};
 use topa_env::IntegratorChoice;
 
 use crate::eval::ablate::{self, Extent};
-use crate::eval::{noise, push, report, tracking, EvalSettings, PolicyRunner};
+use crate::eval::results::Group;
+use crate::eval::settings::EvalSettings;
+use crate::eval::{heatmaps, noise, push, report, tracking};
+use topa_env::policy_runner::PolicyRunner;
 
 #[derive(Args, Clone)]
 pub struct Common {
@@ -174,7 +177,7 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             let grid = push::run(&mut r, &s, range, step, window, [0.0; 3])?;
             report::write_json(&c.out, "push.json", &grid)?;
             report::write_text(&c.out, "push.csv", &report::push_csv(&grid))?;
-            crate::plots::push_heatmaps(
+            heatmaps::push_heatmaps(
                 &[("policy".into(), &grid)],
                 &c.out.join("push_heatmap.png"),
                 &c.out.join("push_heatmap.svg"),
@@ -221,9 +224,9 @@ pub fn policy_files(group: &str, paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
 }
 
 pub fn run_ablate(o: Vec<PathBuf>, cp: Vec<PathBuf>, ca: Vec<PathBuf>, extent: Extent, c: Common) -> Result<()> {
-    let mut policies: Vec<(String, PathBuf)> = Vec::new();
-    for (name, flag, paths) in [("O", "o", o), ("C", "c", cp), ("CA", "ca", ca)] {
-        policies.extend(policy_files(flag, &paths)?.into_iter().map(|p| (name.to_string(), p)));
+    let mut policies: Vec<(Group, PathBuf)> = Vec::new();
+    for (group, flag, paths) in [(Group::O, "o", o), (Group::C, "c", cp), (Group::CA, "ca", ca)] {
+        policies.extend(policy_files(flag, &paths)?.into_iter().map(|p| (group, p)));
     }
     extent.check()?;
     let a = ablate::run(&policies, &c.settings()?, &extent)?;

@@ -9,7 +9,7 @@
 //! * with `--motor-targets`, output `motor_targets`: float32 `[batch, n]`, what the motors receive:
 //!   `clamp(nominal + action_scale · clip(action, ±action_clip), motor range)`, in rad.
 //!
-//! Everything robot-specific comes from the robot's spec and MJCF (through the evaluation's `PolicyRunner`): the
+//! Everything robot-specific comes from the robot's spec and MJCF (through `PolicyRunner`): the
 //! layout, the motor order, the stand pose and the ranges. A policy trained on a simplified model (TopA's serial
 //! chain, whose spec `approximates` the closed robot) acts in joint space; its graph maps the observation's motor
 //! blocks to joint space and the action back through the linkage's constant J (the paper's M, computed from the
@@ -26,7 +26,7 @@ use topa_env::observation::{Block, ObsLayout};
 use tract_onnx::pb;
 use trainer::policy_file::Policy;
 
-use crate::eval::PolicyRunner;
+use topa_env::policy_runner::PolicyRunner;
 
 pub const OPSET: i64 = 17;
 pub const INPUT: &str = "obs";

@@ -14,7 +14,6 @@ pub mod info;
 pub mod mpi_comm;
 pub mod play;
 pub mod plots;
-pub mod push_grid;
 pub mod recording;
 pub mod robot_info;
 pub mod train_cmd;

@@ -6,11 +6,12 @@ use std::path::PathBuf;
 use anyhow::Result;
 use serde::Serialize;
 use serde_json::json;
-use topa_env::{assets, Task, TopaEnv};
+use topa_env::{assets, RobotEnv, Task};
 
-use crate::eval::{EvalSettings, PolicyRunner};
+use crate::eval::settings::EvalSettings;
 use crate::recording::Recorder;
 use crate::video::{self, VideoRecorder};
+use topa_env::policy_runner::PolicyRunner;
 
 /// What to play and what to write.
 #[derive(Debug, Clone, Default)]
@@ -49,13 +50,13 @@ fn named(names: &[String], v: &[f64]) -> serde_json::Value {
 
 /// Joint torques from motor torques by virtual work, τ_j = J⁻ᵀ τ_m, where the robot's linkage is linear (its J
 /// constant); `None` leaves them out of the recording.
-fn joint_torque_map(env: &TopaEnv) -> Option<nalgebra::DMatrix<f64>> {
+fn joint_torque_map(env: &RobotEnv) -> Option<nalgebra::DMatrix<f64>> {
     let idx = env.indices();
     let map = topa_env::linkage::JointMap::new(&idx.spec, env.data().model()).ok()?;
     map.inverse_matrix(idx.n_motors).map(|inv| inv.transpose())
 }
 
-fn record_step(rec: &mut Recorder, env: &TopaEnv, torque_map: &Option<nalgebra::DMatrix<f64>>, t: f64) -> Result<()> {
+fn record_step(rec: &mut Recorder, env: &RobotEnv, torque_map: &Option<nalgebra::DMatrix<f64>>, t: f64) -> Result<()> {
     let s = env.robot_state();
     let spec = &env.indices().spec;
     let joints: Vec<String> = spec.motors.iter().map(|m| m.joint.clone()).collect();
@@ -89,9 +90,9 @@ fn record_step(rec: &mut Recorder, env: &TopaEnv, torque_map: &Option<nalgebra::
 pub fn run(policy: &std::path::Path, o: &PlayOptions, settings: &EvalSettings) -> Result<PlaySummary> {
     let (command, seconds) = (o.command, o.seconds);
     let mut runner = PolicyRunner::load(policy, "policy")?;
-    let cfg = runner.eval_config(settings)?;
+    let cfg = settings.env_config(&runner)?;
     let (_, model) = assets::load_robot(&cfg)?;
-    let mut env = TopaEnv::new(model, std::sync::Arc::new(cfg.clone()), settings.seed, 0)?;
+    let mut env = RobotEnv::new(model, std::sync::Arc::new(cfg.clone()), settings.seed, 0)?;
     let torque_map = joint_torque_map(&env);
     let mut obs = vec![0.0f32; env.obs_dim()];
     env.reset(&mut obs)?;

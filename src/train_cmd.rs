@@ -35,10 +35,10 @@ pub fn load_config(path: &Path) -> Result<(TrainConfig, EnvConfig)> {
     Ok((cfg, env))
 }
 
-/// The TopA batch for a config (the env crate checks the model against the spec).
-pub fn topa_env(cfg: &TrainConfig) -> Result<Box<dyn VecEnv>> {
+/// The task's batched envs for a config: a robot's (the env crate checks its model against its spec) or the cart-pole.
+pub fn task_env(cfg: &TrainConfig) -> Result<Box<dyn VecEnv>> {
     let env = EnvConfig::from_table(&cfg.env)?;
-    Ok(Box::new(assets::topa_batch(&env, cfg.run.num_envs, cfg.run.seed, 0)?))
+    Ok(Box::new(assets::robot_batch(&env, cfg.run.num_envs, cfg.run.seed, 0)?))
 }
 
 /// This rank's share of the run's envs: `run.num_envs / ranks` of them, env `i` seeded as env
@@ -53,9 +53,9 @@ fn rank_env(cfg: &TrainConfig, comm: &dyn Comm) -> Result<Box<dyn VecEnv>> {
     let first = (rank * share) as u64;
     let env = EnvConfig::from_table(&cfg.env)?;
     Ok(match env.task {
-        TaskKind::Topa => {
+        TaskKind::Robot => {
             let (spec, model) = assets::load_robot(&env)?;
-            Box::new(assets::topa_batch_from(model, &spec, &env, first, share, cfg.run.seed, 0)?)
+            Box::new(assets::robot_batch_from(model, &spec, &env, first, share, cfg.run.seed, 0)?)
         }
         TaskKind::Cartpole => {
             let model = topa_env::tasks::cartpole::model()?;
@@ -123,7 +123,7 @@ pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> 
     let meta = PolicyMeta {
         format: policy_file::FORMAT.into(),
         version: policy_file::VERSION,
-        robot: (env.task == TaskKind::Topa).then(|| env.robot.clone()),
+        robot: (env.task == TaskKind::Robot).then(|| env.robot.clone()),
         obs_dim: t.env.obs_dim(),
         action_dim: t.env.action_dim(),
         hidden: cfg.network.actor_hidden.clone(),

@@ -7,10 +7,12 @@ use std::sync::Arc;
 use candle_core::{Device, Tensor};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use topa::eval::{noise, push, tracking, EvalSettings, PolicyRunner};
+use topa::eval::settings::EvalSettings;
+use topa::eval::{noise, push, tracking};
 use topa::play::PlayOptions;
+use topa_env::policy_runner::PolicyRunner;
 use topa_env::robot::{self, ModelKind, N_MOTORS};
-use topa_env::{assets, EnvConfig, Task, TopaEnv};
+use topa_env::{assets, EnvConfig, RobotEnv, Task};
 use trainer::nn::Mlp;
 use trainer::normalizer::Normalizer;
 use trainer::policy_file::{self, PolicyMeta, Provenance};
@@ -207,7 +209,7 @@ fn push_grid_has_the_papers_cells_and_a_standing_robot_scores_the_window() {
 fn a_forward_push_accelerates_the_torso_along_its_own_x() {
     let mut cfg = EnvConfig::default().for_evaluation();
     cfg.episode_length_s = 100.0;
-    let mut env = TopaEnv::new(assets::load_model(ModelKind::Closed).unwrap(), Arc::new(cfg), 1, 0).unwrap();
+    let mut env = RobotEnv::new(assets::load_model(ModelKind::Closed).unwrap(), Arc::new(cfg), 1, 0).unwrap();
     let mut obs = vec![0.0f32; 42];
     env.reset(&mut obs).unwrap();
     // Turn the robot to face world +y (yaw 90°), so torso +x and world +x differ.

@@ -6,9 +6,10 @@ use std::path::{Path, PathBuf};
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use topa::eval::{EvalSettings, PolicyRunner};
+use topa::eval::settings::EvalSettings;
+use topa_env::policy_runner::PolicyRunner;
 use topa_env::robot::{ModelKind, N_MOTORS};
-use topa_env::{assets, Task, TopaEnv};
+use topa_env::{assets, RobotEnv, Task};
 use tract_onnx::prelude::*;
 
 fn policy(name: &str) -> PathBuf {
@@ -24,8 +25,9 @@ fn tempdir(name: &str) -> PathBuf {
 /// 500 observations of the C policy walking under changing commands, then 500 random ones.
 fn observations() -> Vec<f32> {
     let mut runner = PolicyRunner::load(&policy("C/seed1"), "C").unwrap();
-    let cfg = runner.eval_config(&EvalSettings::default()).unwrap();
-    let mut env = TopaEnv::new(assets::load_model(ModelKind::Closed).unwrap(), std::sync::Arc::new(cfg), 1, 0).unwrap();
+    let cfg = EvalSettings::default().env_config(&runner).unwrap();
+    let mut env =
+        RobotEnv::new(assets::load_model(ModelKind::Closed).unwrap(), std::sync::Arc::new(cfg), 1, 0).unwrap();
     let mut obs = vec![0.0f32; 42];
     env.reset(&mut obs).unwrap();
     let mut out = Vec::new();

@@ -4,8 +4,9 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use topa::eval::{EvalSettings, PolicyRunner};
-use topa_env::{assets, ModelKind, Task, TopaEnv};
+use topa::eval::settings::EvalSettings;
+use topa_env::policy_runner::PolicyRunner;
+use topa_env::{assets, ModelKind, RobotEnv, Task};
 
 fn realistic() -> EvalSettings {
     EvalSettings::default().with_sim2sim("realistic").unwrap()
@@ -20,8 +21,9 @@ fn c_policy() -> PolicyRunner {
 fn walk(command: [f64; 3], seconds: f64, skip: f64, seed: u64) -> Vec<([f64; 3], [f64; 3])> {
     let mut runner = c_policy();
     let settings = EvalSettings { seed, ..realistic() };
-    let cfg = runner.eval_config(&settings).unwrap();
-    let mut env = TopaEnv::new(assets::load_model(ModelKind::Closed).unwrap(), Arc::new(cfg.clone()), seed, 0).unwrap();
+    let cfg = settings.env_config(&runner).unwrap();
+    let mut env =
+        RobotEnv::new(assets::load_model(ModelKind::Closed).unwrap(), Arc::new(cfg.clone()), seed, 0).unwrap();
     let mut obs = vec![0.0f32; env.obs_dim()];
     env.reset(&mut obs).unwrap();
     env.set_command_override(Some([0.0; 3]));
@@ -86,11 +88,11 @@ static LOGS: Collect = Collect(std::sync::Mutex::new(Vec::new()));
 fn bad_sensor_values_reset_the_filter_with_a_warning_and_a_fall_stays_finite() {
     let _ = log::set_logger(&LOGS).map(|()| log::set_max_level(log::LevelFilter::Warn));
     let settings = realistic();
-    let mut cfg = c_policy().eval_config(&settings).unwrap();
+    let mut cfg = settings.env_config(&c_policy()).unwrap();
     cfg.termination.enabled = false;
     let model = assets::load_model(ModelKind::Closed).unwrap();
     let cfg = Arc::new(cfg);
-    let mut env = TopaEnv::new(model.clone(), cfg.clone(), 3, 0).unwrap();
+    let mut env = RobotEnv::new(model.clone(), cfg.clone(), 3, 0).unwrap();
     let idx = env.indices().clone();
     // The filter on its own, fed a NaN accelerometer reading: it refuses it, resets, says so, stays finite.
     let mut s = topa_env::sim2sim::Sim2Sim::new(Arc::new(cfg.sim2sim.clone()), model.clone(), &idx, 1, 0).unwrap();
@@ -125,10 +127,10 @@ fn bad_sensor_values_reset_the_filter_with_a_warning_and_a_fall_stays_finite() {
 
 #[test]
 fn sim2sim_is_seeded_and_its_delays_are_whole_steps() {
-    let base = c_policy().eval_config(&realistic()).unwrap();
+    let base = realistic().env_config(&c_policy()).unwrap();
     let model = assets::load_model(ModelKind::Closed).unwrap();
     let rollout = |cfg: &topa_env::EnvConfig, seed: u64, steps: usize| -> Vec<Vec<f32>> {
-        let mut env = TopaEnv::new(model.clone(), Arc::new(cfg.clone()), seed, 0).unwrap();
+        let mut env = RobotEnv::new(model.clone(), Arc::new(cfg.clone()), seed, 0).unwrap();
         let mut obs = vec![0.0f32; env.obs_dim()];
         env.reset(&mut obs).unwrap();
         let mut out = vec![obs.clone()];
@@ -157,11 +159,11 @@ fn sim2sim_is_seeded_and_its_delays_are_whole_steps() {
 
 #[test]
 fn an_action_reaches_the_motors_after_the_configured_latency() {
-    let mut cfg = c_policy().eval_config(&realistic()).unwrap();
+    let mut cfg = realistic().env_config(&c_policy()).unwrap();
     cfg.sim2sim.latency.action_policy_steps = 1;
     cfg.sim2sim.latency.action_physics_steps = 3;
     let model = assets::load_model(ModelKind::Closed).unwrap();
-    let env = TopaEnv::new(model.clone(), Arc::new(cfg.clone()), 1, 0).unwrap();
+    let env = RobotEnv::new(model.clone(), Arc::new(cfg.clone()), 1, 0).unwrap();
     let idx = env.indices().clone();
     let mut s = topa_env::sim2sim::Sim2Sim::new(Arc::new(cfg.sim2sim.clone()), model.clone(), &idx, 1, 0).unwrap();
     let mut d = mujoco_sys::Data::new(model).unwrap();

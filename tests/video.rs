@@ -6,10 +6,10 @@ use std::path::Path;
 use std::process::Command;
 
 use mujoco_sys::render::Renderer;
-use topa::eval::EvalSettings;
+use topa::eval::settings::EvalSettings;
 use topa::play::{self, PlayOptions};
 use topa::video::GlContext;
-use topa_env::{assets, EnvConfig, ModelKind, Task, TopaEnv};
+use topa_env::{assets, EnvConfig, ModelKind, RobotEnv, Task};
 
 fn tempdir(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("topa-video-{name}-{}", std::process::id()));
@@ -21,7 +21,7 @@ fn tempdir(name: &str) -> std::path::PathBuf {
 fn the_standing_robot_fills_the_middle_of_the_frame() {
     let _gl = GlContext::headless(320, 240).expect("headless OpenGL (EGL)");
     let model = assets::load_model(ModelKind::Closed).unwrap();
-    let mut env = TopaEnv::new(model.clone(), std::sync::Arc::new(EnvConfig::default()), 1, 0).unwrap();
+    let mut env = RobotEnv::new(model.clone(), std::sync::Arc::new(EnvConfig::default()), 1, 0).unwrap();
     let mut obs = vec![0.0f32; 42];
     env.reset(&mut obs).unwrap();
     let mut r = Renderer::new(model.clone(), 320, 240, mujoco_sys::render::Quality::High).unwrap();

@@ -6,8 +6,8 @@ use std::sync::Arc;
 use crate::error::{MujocoError, Result};
 use crate::ffi::{self, mjContact, mjData};
 use crate::guard::{self, guarded};
+use crate::model::Model;
 use crate::model_arrays::{view, view_mut};
-use crate::Model;
 
 /// MuJoCo's warning kinds (`mjtWarning`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -410,12 +410,12 @@ impl Data {
     /// 6-D velocity [angular(3), linear(3)] of a body's frame origin (`mj_objectVelocity`), in world
     /// orientation, or in the body's own frame if `local`. Valid after `forward`/`step`.
     pub fn body_velocity(&self, body: usize, local: bool) -> [f64; 6] {
-        self.object_velocity(crate::ObjType::Body, body, local)
+        self.object_velocity(crate::obj_type::ObjType::Body, body, local)
     }
 
     /// 6-D velocity [angular(3), linear(3)] of an object's frame (body, geom, site, camera), in world orientation
     /// or in the object's own frame if `local`. Panics on an index the model does not have.
-    pub fn object_velocity(&self, kind: crate::ObjType, id: usize, local: bool) -> [f64; 6] {
+    pub fn object_velocity(&self, kind: crate::obj_type::ObjType, id: usize, local: bool) -> [f64; 6] {
         let n = self.model.count(kind);
         assert!(id < n, "{kind} {id} out of range ({n})");
         let mut out = [0.0; 6];

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use crate::ObjType;
+use crate::obj_type::ObjType;
 
 /// An error from MuJoCo or from using it wrongly. Each variant names the thing at fault and, where there is one,
 /// the fix.

@@ -10,6 +10,7 @@ mod guard;
 mod model;
 mod model_arrays;
 mod names;
+mod obj_type;
 pub mod render;
 
 pub use data::{Data, Warning};
@@ -17,7 +18,7 @@ pub use error::{MujocoError, Result};
 pub use ffi::mjContact as Contact;
 pub use guard::version_string;
 pub use model::{Integrator, Model};
-pub use names::ObjType;
+pub use obj_type::ObjType;
 
 /// MuJoCo's equality-constraint kinds, by name.
 pub fn equality_type_name(raw: i32) -> &'static str {

@@ -2,7 +2,7 @@
 //! and system identification change (masses, inertias, friction, motor armature/damping/frictionloss, gains).
 
 use crate::ffi::{mjNBIAS, mjNEQDATA, mjNGAIN};
-use crate::Model;
+use crate::model::Model;
 
 /// A slice over a MuJoCo array of `count` items of type `T` (`T` may be `[f64; N]` for row-major groups).
 ///

@@ -1,83 +1,11 @@
-//! Object kinds and name ↔ id lookups.
+//! Name ↔ id lookups of a model's objects.
 
 use std::ffi::{CStr, CString};
-use std::fmt;
 
 use crate::error::{MujocoError, Result};
 use crate::ffi;
-use crate::Model;
-
-/// The kinds of named objects the safe layer looks up.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum ObjType {
-    Body,
-    Joint,
-    Geom,
-    Site,
-    Actuator,
-    Sensor,
-    Equality,
-    Key,
-}
-
-impl ObjType {
-    pub const ALL: [ObjType; 8] = [
-        ObjType::Body,
-        ObjType::Joint,
-        ObjType::Geom,
-        ObjType::Site,
-        ObjType::Actuator,
-        ObjType::Sensor,
-        ObjType::Equality,
-        ObjType::Key,
-    ];
-
-    pub(crate) fn raw(self) -> i32 {
-        (match self {
-            ObjType::Body => ffi::mjOBJ_BODY,
-            ObjType::Joint => ffi::mjOBJ_JOINT,
-            ObjType::Geom => ffi::mjOBJ_GEOM,
-            ObjType::Site => ffi::mjOBJ_SITE,
-            ObjType::Actuator => ffi::mjOBJ_ACTUATOR,
-            ObjType::Sensor => ffi::mjOBJ_SENSOR,
-            ObjType::Equality => ffi::mjOBJ_EQUALITY,
-            ObjType::Key => ffi::mjOBJ_KEY,
-        }) as i32
-    }
-
-    /// Converts MuJoCo's `mjtObj` code (as stored in e.g. `eq_obj1id`'s companion type) back.
-    pub fn from_raw(raw: i32) -> Option<ObjType> {
-        ObjType::ALL.into_iter().find(|t| t.raw() == raw)
-    }
-
-    fn count(self, m: &ffi::mjModel) -> i32 {
-        match self {
-            ObjType::Body => m.nbody,
-            ObjType::Joint => m.njnt,
-            ObjType::Geom => m.ngeom,
-            ObjType::Site => m.nsite,
-            ObjType::Actuator => m.nu,
-            ObjType::Sensor => m.nsensor,
-            ObjType::Equality => m.neq,
-            ObjType::Key => m.nkey,
-        }
-    }
-}
-
-impl fmt::Display for ObjType {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            ObjType::Body => "body",
-            ObjType::Joint => "joint",
-            ObjType::Geom => "geom",
-            ObjType::Site => "site",
-            ObjType::Actuator => "actuator",
-            ObjType::Sensor => "sensor",
-            ObjType::Equality => "equality",
-            ObjType::Key => "keyframe",
-        })
-    }
-}
+use crate::model::Model;
+use crate::obj_type::ObjType;
 
 impl Model {
     /// The id of the named object, or an error that names the object, the model and the names it does have.

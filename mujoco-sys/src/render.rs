@@ -6,10 +6,11 @@
 use std::ffi::CString;
 use std::sync::Arc;
 
+use crate::data::Data;
 use crate::error::{MujocoError, Result};
 use crate::ffi::{self, mjrContext, mjrRect, mjvCamera, mjvOption, mjvScene};
 use crate::guard::{self, guarded};
-use crate::{Data, Model};
+use crate::model::Model;
 
 /// Most geoms a frame can hold.
 const MAX_GEOM: i32 = 2000;

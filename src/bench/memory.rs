@@ -39,7 +39,7 @@ struct Use {
 /// Steps `n` envs for `steps` policy steps, acting with `policy` (or uniformly random actions in ±`random`),
 /// recording the largest MuJoCo memory use.
 fn measure(cfg: &EnvConfig, n: usize, steps: usize, policy: Option<&mut Policy>, random: f32) -> Result<Use> {
-    let mut v = assets::topa_batch(cfg, n, 7, 0)?;
+    let mut v = assets::robot_batch(cfg, n, 7, 0)?;
     v.reset()?;
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let mut actions = vec![0.0f32; n * v.action_dim()];
@@ -70,7 +70,7 @@ pub fn run(envs: usize, steps: usize, policy: &std::path::Path) -> Result<()> {
     cfg.integrator = topa_env::IntegratorChoice::Euler;
     let (rss0, faults0) = rss_and_faults();
     let start = Instant::now();
-    let mut v = assets::topa_batch(&cfg, envs, 1, 0)?;
+    let mut v = assets::robot_batch(&cfg, envs, 1, 0)?;
     v.reset()?;
     let ready = start.elapsed().as_secs_f64();
     let (rss1, faults1) = rss_and_faults();

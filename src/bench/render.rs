@@ -6,14 +6,14 @@ use std::time::Instant;
 
 use anyhow::Result;
 use mujoco_sys::render::{Quality, Renderer};
-use topa_env::{assets, EnvConfig, ModelKind, Task, TopaEnv};
+use topa_env::{assets, EnvConfig, ModelKind, RobotEnv, Task};
 
 use crate::video::{GlContext, VideoWriter};
 
 pub fn run(width: usize, height: usize, frames: usize, quality: Quality) -> Result<()> {
     let _gl = GlContext::headless(width, height)?;
     let model = assets::load_model(ModelKind::Closed)?;
-    let mut env = TopaEnv::new(model.clone(), std::sync::Arc::new(EnvConfig::default()), 1, 0)?;
+    let mut env = RobotEnv::new(model.clone(), std::sync::Arc::new(EnvConfig::default()), 1, 0)?;
     let mut obs = vec![0.0f32; 42];
     env.reset(&mut obs)?;
     let mut r = Renderer::new(model, width, height, quality)?;

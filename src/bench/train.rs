@@ -64,7 +64,7 @@ pub fn worker(a: &Args, threads: usize) -> Result<WorkerResult> {
         cfg.env = env_cfg.to_table();
     }
     let standing = super::env::physics_steps_per_second(&env_cfg, 2.0)?;
-    let env = crate::train_cmd::topa_env(&cfg)?;
+    let env = crate::train_cmd::task_env(&cfg)?;
     let mut t = Trainer::new(cfg.clone(), env, false)?;
     for _ in 0..a.warmup {
         t.iterate()?.context("warm-up iteration")?;

@@ -8,11 +8,13 @@ use anyhow::{ensure, Context, Result};
 use serde::{Deserialize, Serialize};
 
 use super::groups;
-use super::noise::{self, NoiseRow};
-use super::push::{self, PushGrid};
-use super::report::{self, label};
-use super::tracking::{self, TrackingRow};
-use super::{EvalSettings, PolicyRunner};
+use super::noise;
+use super::push;
+use super::report;
+use super::results::{one, Group, PolicyResults, PushGrid};
+use super::settings::EvalSettings;
+use super::tracking;
+use topa_env::policy_runner::PolicyRunner;
 
 /// How much of each experiment to run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -21,7 +23,7 @@ pub struct Extent {
     pub tracking_window_s: f64,
     pub tracking_transient_s: f64,
     /// Initial states each tracking command runs from (1 in reports written before there was a choice).
-    #[serde(default = "tracking::one")]
+    #[serde(default = "one")]
     pub tracking_starts: usize,
     pub push_range_n: f64,
     pub push_step_n: f64,
@@ -89,21 +91,6 @@ impl Extent {
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct PolicyResults {
-    /// The group: O, C or CA.
-    pub name: String,
-    pub policy: PathBuf,
-    pub trained_on: String,
-    pub tracking: Vec<TrackingRow>,
-    /// The paper's push test: standing (command 0).
-    pub push: PushGrid,
-    /// The same grid while walking at `Extent::walking_push_command`.
-    pub push_walking: Option<PushGrid>,
-    pub noise: Vec<NoiseRow>,
-}
-
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct Ablation {
     pub settings: EvalSettings,
     pub extent: Extent,
@@ -111,12 +98,12 @@ pub struct Ablation {
 }
 
 /// Runs every experiment for each (group, policy file).
-pub fn run(policies: &[(String, PathBuf)], settings: &EvalSettings, extent: &Extent) -> Result<Ablation> {
+pub fn run(policies: &[(Group, PathBuf)], settings: &EvalSettings, extent: &Extent) -> Result<Ablation> {
     ensure!(!policies.is_empty(), "give at least one policy with --o, --c or --ca");
     let mut results = Vec::new();
     for (name, path) in policies {
-        let mut runner = PolicyRunner::load(path, label(name))?;
-        eprintln!("{}: {} (trained on the {} model)", label(name), path.display(), runner.trained_on());
+        let mut runner = PolicyRunner::load(path, name.label())?;
+        eprintln!("{}: {} (trained on the {} model)", name.label(), path.display(), runner.trained_on());
         let (window, transient) = (extent.tracking_window_s, extent.tracking_transient_s);
         let tracking = tracking::run(&mut runner, settings, window, transient, extent.tracking_starts)?;
         let push =
@@ -126,7 +113,7 @@ pub fn run(policies: &[(String, PathBuf)], settings: &EvalSettings, extent: &Ext
         let noise =
             noise::run(&mut runner, settings, extent.noise_runs, extent.noise_seconds, extent.noise_interval_s)?;
         results.push(PolicyResults {
-            name: name.clone(),
+            name: *name,
             policy: path.clone(),
             trained_on: runner.trained_on().into(),
             tracking,
@@ -137,9 +124,6 @@ pub fn run(policies: &[(String, PathBuf)], settings: &EvalSettings, extent: &Ext
     }
     Ok(Ablation { settings: settings.clone(), extent: extent.clone(), results })
 }
-
-/// The groups in the order the report lists them.
-const GROUP_ORDER: [&str; 3] = ["O", "C", "CA"];
 
 /// Joins ablations written by earlier runs (`ablation.json`: one per policy, per machine or per session — each
 /// policy's numbers do not depend on the others, its noise streams come from the seed alone) into one. Refused
@@ -181,12 +165,6 @@ pub fn merge(files: &[PathBuf]) -> Result<Ablation> {
         );
         for r in &a.results {
             ensure!(
-                GROUP_ORDER.contains(&r.name.as_str()),
-                "--merge: {} has a policy in group {:?}; groups are O, C and CA",
-                f.display(),
-                r.name
-            );
-            ensure!(
                 !results.iter().any(|q| q.policy == r.policy),
                 "--merge: policy {} is in more than one file ({} among them); it would count as two seeds",
                 r.policy.display(),
@@ -195,7 +173,7 @@ pub fn merge(files: &[PathBuf]) -> Result<Ablation> {
             results.push(r.clone());
         }
     }
-    results.sort_by_key(|r| GROUP_ORDER.iter().position(|g| *g == r.name));
+    results.sort_by_key(|r| r.name); // the report's order: O, C, CA
     Ok(Ablation { settings: first.settings.clone(), extent: first.extent.clone(), results })
 }
 
@@ -250,7 +228,7 @@ pub fn write(a: &Ablation, out: &Path) -> Result<()> {
     std::fs::create_dir_all(out)?;
     report::write_text(out, "ablation.md", &markdown(a)?)?;
     report::write_json(out, "ablation.json", a)?;
-    let mut seen: Vec<(String, usize)> = Vec::new();
+    let mut seen: Vec<(Group, usize)> = Vec::new();
     for r in &a.results {
         // The k-th policy of a group is NAME_k (NAME alone for the first), so that seeds never overwrite each other.
         let k = match seen.iter_mut().find(|(n, _)| *n == r.name) {
@@ -259,11 +237,11 @@ pub fn write(a: &Ablation, out: &Path) -> Result<()> {
                 *k
             }
             None => {
-                seen.push((r.name.clone(), 1));
+                seen.push((r.name, 1));
                 1
             }
         };
-        let stem = if k == 1 { r.name.clone() } else { format!("{}_{k}", r.name) };
+        let stem = if k == 1 { r.name.key().to_string() } else { format!("{}_{k}", r.name.key()) };
         report::write_text(out, &format!("{stem}_tracking.csv"), &report::tracking_csv(&r.tracking))?;
         report::write_text(out, &format!("{stem}_push.csv"), &report::push_csv(&r.push))?;
         if let Some(w) = &r.push_walking {
@@ -278,7 +256,7 @@ pub fn write(a: &Ablation, out: &Path) -> Result<()> {
                 let grids =
                     grp.members.iter().filter_map(|r| if walking { r.push_walking.as_ref() } else { Some(&r.push) });
                 let n = grp.members.len();
-                let mut title = label(grp.name).to_string();
+                let mut title = grp.name.label().to_string();
                 if walking {
                     let c = a.extent.walking_push_command;
                     title += &format!(
@@ -299,7 +277,7 @@ pub fn write(a: &Ablation, out: &Path) -> Result<()> {
             continue;
         }
         let refs: Vec<(String, &PushGrid)> = grids.iter().map(|(n, g)| (n.clone(), g)).collect();
-        crate::plots::push_heatmaps(&refs, &out.join(format!("{stem}.png")), &out.join(format!("{stem}.svg")))?;
+        super::heatmaps::push_heatmaps(&refs, &out.join(format!("{stem}.png")), &out.join(format!("{stem}.svg")))?;
     }
     Ok(())
 }
@@ -353,7 +331,7 @@ mod tests {
         let grid =
             PushGrid { axis: vec![-30.0, 0.0, 30.0], t_fall: vec![t_fall; 9], window_s: 10.0, command: [0.0; 3] };
         PolicyResults {
-            name: name.into(),
+            name: Group::from_key(name).unwrap(),
             policy: policy.into(),
             trained_on: "closed".into(),
             tracking: vec![row],
@@ -381,8 +359,7 @@ mod tests {
         let c2_ablation = Ablation { settings: more, extent: Extent::full(), results: vec![one("C", "c2.json", 7.0)] };
         report::write_json(&dir, "c2.json", &c2_ablation).unwrap();
         let m = merge(&[ca.clone(), c.clone(), dir.join("c2.json")]).unwrap();
-        let order: Vec<(&str, &str)> =
-            m.results.iter().map(|r| (r.name.as_str(), r.policy.to_str().unwrap())).collect();
+        let order: Vec<(&str, &str)> = m.results.iter().map(|r| (r.name.key(), r.policy.to_str().unwrap())).collect();
         assert_eq!(order, [("O", "o1.json"), ("C", "c1.json"), ("C", "c2.json"), ("CA", "ca1.json")]);
         let g = groups::group(&m.results);
         assert_eq!(g[1].t_fall_standing().mean, 7.5);

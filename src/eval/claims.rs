@@ -3,10 +3,9 @@
 
 use std::fmt::Write as _;
 
-use super::ablate::PolicyResults;
-use super::groups::{Group, Stat};
+use super::groups::{GroupResults, Stat};
 use super::intervals::{self, Interval, Resampling, Scores};
-use super::report::label;
+use super::results::{Group, PolicyResults};
 
 /// One checked statement.
 #[derive(Debug, Clone, PartialEq)]
@@ -70,10 +69,10 @@ pub const MAX_COMPONENT_MAE: f64 = 0.15;
 pub const MIN_AIR_TIME_S: f64 = 0.2;
 pub const MIN_CLEARANCE_M: f64 = 0.03;
 pub const MAX_STEPS_PER_S: f64 = 2.5;
-/// The paper's C+A mean time to fall is 9.71 s; the issue asks for at least this.
+/// The mean time to fall C+A must reach (the paper's C+A: 9.71 s).
 pub const MIN_CA_T_FALL_S: f64 = 9.0;
 
-fn find<'a, 'b>(groups: &'a [Group<'b>], name: &str) -> Option<&'a Group<'b>> {
+fn find<'a, 'b>(groups: &'a [GroupResults<'b>], name: Group) -> Option<&'a GroupResults<'b>> {
     groups.iter().find(|g| g.name == name)
 }
 
@@ -83,10 +82,12 @@ fn known(s: Stat) -> Option<Stat> {
 
 /// The claims that compare groups (O, C, CA by name), and the bars each C and C+A policy must meet. A comparison
 /// holds when the 95 % interval of the difference lies above zero (rliable's reading), fails when it lies below.
-pub fn check(groups: &[Group], res: Resolution) -> Vec<Claim> {
+pub fn check(groups: &[GroupResults], res: Resolution) -> Vec<Claim> {
     let mut out = Vec::new();
-    let t = |name: &str| find(groups, name).and_then(|g| known(g.t_fall_standing()));
-    let (o, c, ca) = (t("O"), t("C"), t("CA"));
+    let t = |name: Group| find(groups, name).and_then(|g| known(g.t_fall_standing()));
+    let (o, c, ca) = (t(Group::O), t(Group::C), t(Group::CA));
+    let paper = super::report::paper().unwrap_or_default();
+    let paper_t = |g: Group| paper.push_mean_t_fall.get(g.key()).map_or("–".into(), |x| format!("{x:.2}"));
     out.push(Claim {
         statement: "mean t_fall (standing pushes): O < C < C+A, on the means".into(),
         holds: match (o, c, ca) {
@@ -94,32 +95,35 @@ pub fn check(groups: &[Group], res: Resolution) -> Vec<Claim> {
             _ => None,
         },
         evidence: format!(
-            "O {}, C {}, C+A {} s (mean ± sd; paper 4.77 < 8.48 < 9.71)",
+            "O {}, C {}, C+A {} s (mean ± sd; paper {} < {} < {})",
             o.map_or("–".into(), |s| s.show(2)),
             c.map_or("–".into(), |s| s.show(2)),
-            ca.map_or("–".into(), |s| s.show(2))
+            ca.map_or("–".into(), |s| s.show(2)),
+            paper_t(Group::O),
+            paper_t(Group::C),
+            paper_t(Group::CA)
         ),
         undecided: "–",
     });
-    let push = |name: &str| find(groups, name).map(|g| g.push_scores(false));
-    for (x, y) in [("C", "O"), ("CA", "C")] {
+    let push = |name: Group| find(groups, name).map(|g| g.push_scores(false));
+    for (x, y) in [(Group::C, Group::O), (Group::CA, Group::C)] {
         if let (Some(sx), Some(sy)) = (push(x), push(y)) {
-            let statement = format!("{} − {} under standing pushes (mean t_fall): above zero", label(x), label(y));
+            let statement = format!("{} − {} under standing pushes (mean t_fall): above zero", x.label(), y.label());
             out.push(improvement(statement, &sx, &sy, res.push, res, "s"));
         }
     }
-    if let Some(g) = find(groups, "CA") {
+    if let Some(g) = find(groups, Group::CA) {
         let ci: Interval = intervals::interval(&g.push_scores(false), res.push, intervals::mean);
         if ci.point.is_finite() {
             out.push(Claim {
                 statement: format!("C+A mean t_fall ≥ {MIN_CA_T_FALL_S} s"),
                 holds: Some(ci.point >= MIN_CA_T_FALL_S),
-                evidence: format!("{} s (paper 9.71)", ci.show(2)),
+                evidence: format!("{} s (paper {})", ci.show(2), paper_t(Group::CA)),
                 undecided: "–",
             });
         }
     }
-    if let (Some(gc), Some(gca)) = (find(groups, "C"), find(groups, "CA")) {
+    if let (Some(gc), Some(gca)) = (find(groups, Group::C), find(groups, Group::CA)) {
         let levels = gc.members.iter().chain(&gca.members).map(|r| r.noise.len()).min().unwrap_or(0);
         for i in 0..levels {
             let statement = format!("C+A − C success at command-noise level {}: above zero", i + 1);
@@ -133,7 +137,7 @@ pub fn check(groups: &[Group], res: Resolution) -> Vec<Claim> {
             out.push(improvement(statement, &sca, &sc, Resampling { tasks: false }, res, "%"));
         }
     }
-    for g in groups.iter().filter(|g| g.name == "C" || g.name == "CA") {
+    for g in groups.iter().filter(|g| matches!(g.name, Group::C | Group::CA)) {
         for r in &g.members {
             out.extend(policy_bars(r));
         }
@@ -143,9 +147,9 @@ pub fn check(groups: &[Group], res: Resolution) -> Vec<Claim> {
 
 /// The issue's bars for one C or C+A policy.
 pub fn policy_bars(r: &PolicyResults) -> Vec<Claim> {
-    let who = format!("{} {}", label(&r.name), r.policy.display());
+    let who = format!("{} {}", r.name.label(), r.policy.display());
     // "key (falls/starts)" for each command that fell, or stood still, from at least one start.
-    let count = |n: usize, t: &crate::eval::tracking::TrackingRow| format!("{} ({n}/{})", t.key, t.starts);
+    let count = |n: usize, t: &super::results::TrackingRow| format!("{} ({n}/{})", t.key, t.starts);
     let falls: Vec<String> = r.tracking.iter().filter(|t| t.fell).map(|t| count(t.fall_count(), t)).collect();
     let still: Option<Vec<String>> = r
         .tracking
@@ -224,9 +228,7 @@ mod tests {
     use super::*;
     use crate::eval::gait::GaitStats;
     use crate::eval::groups::group;
-    use crate::eval::noise::NoiseRow;
-    use crate::eval::tracking::TrackingRow;
-    use crate::push_grid::PushGrid;
+    use crate::eval::results::{NoiseRow, PushGrid, TrackingRow};
 
     fn policy(name: &str, id: usize, t_fall: f64, noise: [f64; 2], worst: f64, air: f64) -> PolicyResults {
         let row = |key: &str, fell: bool| TrackingRow {
@@ -248,7 +250,7 @@ mod tests {
         };
         let grid = PushGrid { axis: vec![0.0], t_fall: vec![t_fall], window_s: 10.0, command: [0.0; 3] };
         PolicyResults {
-            name: name.into(),
+            name: Group::from_key(name).unwrap(),
             policy: format!("{name}{id}.json").into(),
             trained_on: "topa_closed".into(),
             tracking: vec![row("walk_forward", false), row("rotate_cw", false)],
@@ -301,14 +303,14 @@ mod tests {
         assert_eq!((l1.holds, l1.undecided), (None, "tie"));
         assert_eq!(verdict(&c, "C+A − C success at command-noise level 2"), Some(true));
         let mut worse = r.clone();
-        for x in worse.iter_mut().filter(|x| x.name == "CA") {
+        for x in worse.iter_mut().filter(|x| x.name == Group::CA) {
             x.noise[1].success_pct = 10.0;
             x.noise[1].successes = 10;
         }
         assert_eq!(verdict(&check(&group(&worse), FULL), "C+A − C success at command-noise level 2"), Some(false));
         // Fewer than five seeds: the interval is shown, the verdict withheld.
         let three: Vec<PolicyResults> =
-            r.iter().filter(|x| x.name != "C" || x.policy.ends_with("C4.json")).cloned().collect();
+            r.iter().filter(|x| x.name != Group::C || x.policy.ends_with("C4.json")).cloned().collect();
         let c3 = check(&group(&three), FULL);
         let m = c3.iter().find(|x| x.statement.starts_with("C − O under standing pushes")).unwrap();
         assert!(m.holds.is_none() && m.undecided.contains("fewer than 5 seeds"), "{m:?}");

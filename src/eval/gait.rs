@@ -8,7 +8,7 @@
 //! horizontal distance the sole's centre travels while the foot is in contact, reported per stance phase.
 
 use serde::Serialize;
-use topa_env::TopaEnv;
+use topa_env::RobotEnv;
 
 /// The gait of one run.
 #[derive(Debug, Clone, Default, Serialize, serde::Deserialize, PartialEq)]
@@ -57,7 +57,7 @@ pub struct GaitAccumulator {
 
 impl GaitAccumulator {
     /// One policy step of `dt` seconds, read off the env after the step.
-    pub fn add(&mut self, task: &TopaEnv, dt: f64) {
+    pub fn add(&mut self, task: &RobotEnv, dt: f64) {
         let s = task.robot_state();
         let idx = task.indices();
         let d = task.data();

@@ -5,11 +5,9 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use super::ablate::PolicyResults;
 use super::intervals::{self, Resampling, Scores};
-use super::push::PushGrid;
-use super::report::{label, PaperTables};
-use super::tracking::{RunCounts, COMMANDS};
+use super::report::PaperTables;
+use super::results::{Group, PolicyResults, PushGrid, RunCounts, COMMANDS};
 
 /// Mean and sample standard deviation (n − 1) of the finite values among `xs` (a policy that never steps has no
 /// air time: it is left out of that mean, not counted as 0); sd is 0 for a single value.
@@ -45,24 +43,24 @@ impl Stat {
 }
 
 /// One group's policies, in the order they were given.
-pub struct Group<'a> {
-    pub name: &'a str,
+pub struct GroupResults<'a> {
+    pub name: Group,
     pub members: Vec<&'a PolicyResults>,
 }
 
 /// Groups in first-appearance order of their names.
-pub fn group(results: &[PolicyResults]) -> Vec<Group<'_>> {
-    let mut out: Vec<Group> = Vec::new();
+pub fn group(results: &[PolicyResults]) -> Vec<GroupResults<'_>> {
+    let mut out: Vec<GroupResults> = Vec::new();
     for r in results {
         match out.iter_mut().find(|g| g.name == r.name) {
             Some(g) => g.members.push(r),
-            None => out.push(Group { name: &r.name, members: vec![r] }),
+            None => out.push(GroupResults { name: r.name, members: vec![r] }),
         }
     }
     out
 }
 
-impl Group<'_> {
+impl GroupResults<'_> {
     fn stat(&self, f: impl Fn(&PolicyResults) -> f64) -> Stat {
         Stat::of(&self.members.iter().map(|r| f(r)).collect::<Vec<_>>())
     }
@@ -114,7 +112,7 @@ fn paper_cell(ours: String, paper: Option<String>) -> String {
 
 /// The headline table: push (standing, walking), command noise, tracking falls, worst tracking component — each
 /// as the group's mean with its bootstrap 95 % interval (`intervals`), the paper's value beside.
-pub fn headline_markdown(groups: &[Group], paper: &PaperTables, how: Resampling) -> String {
+pub fn headline_markdown(groups: &[GroupResults], paper: &PaperTables, how: Resampling) -> String {
     let levels = groups.iter().flat_map(|g| g.members.iter().map(|r| r.noise.len())).max().unwrap_or(0);
     let mut s = String::from("| Group | policies | mean t_fall standing (s) | mean t_fall walking v_x = 0.5 (s) |");
     for i in 0..levels {
@@ -125,17 +123,17 @@ pub fn headline_markdown(groups: &[Group], paper: &PaperTables, how: Resampling)
     s.push('\n');
     let per_seed = Resampling { tasks: false };
     for g in groups {
-        let p = paper.push_mean_t_fall.get(g.name).map(|x| format!("{x:.2}"));
+        let p = paper.push_mean_t_fall.get(g.name.key()).map(|x| format!("{x:.2}"));
         let _ = write!(
             s,
             "| {} | {} | {} | {} |",
-            label(g.name),
+            g.name.label(),
             g.members.len(),
             paper_cell(intervals::interval(&g.push_scores(false), how, intervals::mean).show(2), p),
             intervals::interval(&g.push_scores(true), how, intervals::mean).show(2)
         );
         for i in 0..levels {
-            let p = paper.noise_success.get(g.name).and_then(|v| v.get(i)).map(|x| format!("{x:.0}"));
+            let p = paper.noise_success.get(g.name.key()).and_then(|v| v.get(i)).map(|x| format!("{x:.0}"));
             let ours = intervals::interval(&g.noise_scores(i), per_seed, intervals::mean).show(0);
             let _ = write!(s, " {} |", paper_cell(ours, p));
         }
@@ -158,7 +156,7 @@ pub fn headline_markdown(groups: &[Group], paper: &PaperTables, how: Resampling)
 
 /// Each group's mean and interquartile mean (IQM) of every score, with their 95 % intervals: the IQM discounts
 /// the best and worst quarter of the seed × cell scores (rliable's robust aggregate).
-pub fn intervals_markdown(groups: &[Group], how: Resampling) -> String {
+pub fn intervals_markdown(groups: &[GroupResults], how: Resampling) -> String {
     let mut s = String::from("| Group | measure | mean [95 % CI] | IQM [95 % CI] |\n|---|---|---:|---:|\n");
     let per_seed = Resampling { tasks: false };
     for g in groups {
@@ -173,7 +171,7 @@ pub fn intervals_markdown(groups: &[Group], how: Resampling) -> String {
             let _ = writeln!(
                 s,
                 "| {} | {name} | {} | {} |",
-                label(g.name),
+                g.name.label(),
                 intervals::interval(&scores, h, intervals::mean).show(d),
                 intervals::interval(&scores, h, intervals::iqm).show(d)
             );
@@ -183,7 +181,7 @@ pub fn intervals_markdown(groups: &[Group], how: Resampling) -> String {
 }
 
 /// Tracking per command and group: per-component MAE, their sum (the paper's column), falls, τ̄, roll, pitch.
-pub fn tracking_markdown(groups: &[Group], paper: &PaperTables) -> String {
+pub fn tracking_markdown(groups: &[GroupResults], paper: &PaperTables) -> String {
     let mut s = String::new();
     for (ci, (key, title, _)) in COMMANDS.iter().enumerate() {
         let _ = writeln!(s, "\n**{title}**\n");
@@ -192,15 +190,15 @@ pub fn tracking_markdown(groups: &[Group], paper: &PaperTables) -> String {
              |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         );
         for g in groups {
-            let row = |f: &dyn Fn(&super::tracking::TrackingRow) -> f64| g.stat(|r| f(&r.tracking[ci]));
-            let p = paper.tracking.get(*key).and_then(|m| m.get(g.name));
+            let row = |f: &dyn Fn(&super::results::TrackingRow) -> f64| g.stat(|r| f(&r.tracking[ci]));
+            let p = paper.tracking.get(*key).and_then(|m| m.get(g.name.key()));
             let pf =
                 |i: usize, d: usize| p.map(|p| format!("{:.d$}{}", p[i], if i == 0 && p[4] > 0.5 { "*" } else { "" }));
             let n = RunCounts::of(g.members.iter().map(|r| &r.tracking[ci]));
             let _ = writeln!(
                 s,
                 "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-                label(g.name),
+                g.name.label(),
                 row(&|t| t.mae_whole[0]).show(3),
                 row(&|t| t.mae_whole[1]).show(3),
                 row(&|t| t.mae_whole[2]).show(3),
@@ -223,7 +221,7 @@ pub fn tracking_markdown(groups: &[Group], paper: &PaperTables) -> String {
 }
 
 /// The gait of each group on each command, mean ± sd over its policies.
-pub fn gait_markdown(groups: &[Group]) -> String {
+pub fn gait_markdown(groups: &[GroupResults]) -> String {
     let mut s = String::from(
         "| Group | command | steps/s per foot | air time (s) | clearance (cm) | slip (cm per stance) | double support | base height (m) |\n\
          |---|---|---:|---:|---:|---:|---:|---:|\n",
@@ -234,7 +232,7 @@ pub fn gait_markdown(groups: &[Group]) -> String {
             let _ = writeln!(
                 s,
                 "| {} | {key} | {} | {} | {} | {} | {} | {} |",
-                label(g.name),
+                g.name.label(),
                 st(&|x| x.steps_per_s).show(2),
                 st(&|x| x.air_time_s).show(3),
                 st(&|x| 100.0 * x.clearance_m).show(1),
@@ -268,7 +266,7 @@ pub fn per_policy_markdown(results: &[PolicyResults]) -> String {
         let _ = writeln!(
             s,
             "| {} | {} | {:.2} | {} | {} | {} | {} | {:.3} | {gait} |",
-            label(&r.name),
+            r.name.label(),
             r.policy.display(),
             r.push.mean_t_fall(),
             r.push_walking.as_ref().map_or("–".into(), |p| format!("{:.2}", p.mean_t_fall())),

@@ -7,26 +7,16 @@
 use anyhow::Result;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use serde::Serialize;
-use topa_env::TopaEnv;
+use topa_env::RobotEnv;
 use trainer::actor_critic::standard_normal;
 
+use super::results::NoiseRow;
 use super::runner::{run_batch, Experiment};
-use super::{EvalSettings, PolicyRunner};
+use super::settings::EvalSettings;
+use topa_env::policy_runner::PolicyRunner;
 
 pub const LEVELS: [(f64, f64); 4] = [(0.175, 0.5), (0.35, 1.0), (0.525, 1.5), (0.7, 2.0)];
 pub const BASE_COMMAND: [f64; 3] = [0.5, 0.0, 0.0];
-
-#[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct NoiseRow {
-    pub sigma_v: f64,
-    pub sigma_wz: f64,
-    pub runs: usize,
-    pub successes: usize,
-    #[serde(deserialize_with = "super::nan_json::f64")]
-    pub success_pct: f64,
-}
 
 /// Success rate (%) of a list of falls.
 pub fn success_pct(fell: &[Option<f64>]) -> (usize, f64) {
@@ -51,11 +41,11 @@ impl Noise {
 }
 
 impl Experiment for Noise {
-    fn setup(&mut self, env: usize, task: &mut TopaEnv) {
+    fn setup(&mut self, env: usize, task: &mut RobotEnv) {
         let c = self.draw(env);
         task.set_command_override(Some(c));
     }
-    fn control(&mut self, step: usize, env: usize, task: &mut TopaEnv) {
+    fn control(&mut self, step: usize, env: usize, task: &mut RobotEnv) {
         if step > 0 && step % self.every == 0 {
             let c = self.draw(env);
             task.set_command_override(Some(c));
@@ -77,7 +67,7 @@ pub fn run(
     seconds: f64,
     interval_s: f64,
 ) -> Result<Vec<NoiseRow>> {
-    let cfg = runner.eval_config(settings)?;
+    let cfg = settings.env_config(&runner)?;
     let every = ((interval_s / cfg.policy_dt()).round() as usize).max(1);
     let sigma: Vec<(f64, f64)> = LEVELS.iter().flat_map(|&l| std::iter::repeat_n(l, runs)).collect();
     let rngs = (0..LEVELS.len()).flat_map(|l| (0..runs).map(move |r| stream(settings.seed, l, r))).collect();

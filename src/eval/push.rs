@@ -3,12 +3,13 @@
 //! 10 s window; the time to fall (the env's fall test) per cell, `window` where it never falls.
 
 use anyhow::{ensure, Result};
-use topa_env::TopaEnv;
+use topa_env::RobotEnv;
 
 use super::runner::{run_batch, Experiment};
-use super::{EvalSettings, PolicyRunner};
+use super::settings::EvalSettings;
+use topa_env::policy_runner::PolicyRunner;
 
-pub use crate::push_grid::PushGrid;
+use super::results::PushGrid;
 
 /// Force values from −range to +range in `step` increments.
 pub fn axis(range: f64, step: f64) -> Result<Vec<f64>> {
@@ -29,7 +30,7 @@ struct Push {
 }
 
 impl Experiment for Push {
-    fn setup(&mut self, env: usize, task: &mut TopaEnv) {
+    fn setup(&mut self, env: usize, task: &mut RobotEnv) {
         task.set_command_override(Some(self.command));
         let mut p = *task.perturbation();
         p.torso_force_local = [self.forces[env][0], self.forces[env][1], 0.0];
@@ -45,7 +46,7 @@ pub fn run(
     window_s: f64,
     command: [f64; 3],
 ) -> Result<PushGrid> {
-    let cfg = runner.eval_config(settings)?;
+    let cfg = settings.env_config(&runner)?;
     let ax = axis(range, step)?;
     let forces = cells(&ax);
     let label = format!("push grid {} × {} ({})", ax.len(), ax.len(), runner.name);

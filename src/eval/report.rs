@@ -8,20 +8,15 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use serde::Serialize;
 
-use super::noise::NoiseRow;
-use super::push::PushGrid;
-use super::tracking::{RunCounts, TrackingRow, COMMANDS};
+use super::results::{Group, NoiseRow, PushGrid, RunCounts, TrackingRow, COMMANDS};
 
 const PAPER_TOML: &str = include_str!("../../data/paper_tables.toml");
 
-/// The three policies of the ablation, as the paper names them.
-pub const POLICIES: [&str; 3] = ["O", "C", "CA"];
-
-pub fn label(p: &str) -> &str {
-    if p == "CA" {
-        "C+A"
-    } else {
-        p
+/// A group's paper name for its key ("CA" → "C+A"); other names as they are.
+fn label(p: &str) -> &str {
+    match Group::from_key(p) {
+        Some(g) => g.label(),
+        None => p,
     }
 }
 
@@ -39,7 +34,7 @@ pub fn paper() -> Result<PaperTables> {
     for (key, _, _) in COMMANDS {
         let row = &v["tracking"][key];
         let mut per = BTreeMap::new();
-        for p in POLICIES {
+        for p in Group::ALL.map(Group::key) {
             let a = row[p].as_array().context("tracking row")?;
             let num = |i: usize| a[i].as_float().or_else(|| a[i].as_integer().map(|x| x as f64)).unwrap_or(f64::NAN);
             per.insert(

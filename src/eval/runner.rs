@@ -4,19 +4,20 @@
 
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
-use topa_env::{assets, EnvConfig, TopaEnv, VecEnv};
+use topa_env::{assets, EnvConfig, RobotEnv, VecEnv};
 
-use super::{EvalSettings, PolicyRunner};
+use super::settings::EvalSettings;
+use topa_env::policy_runner::PolicyRunner;
 
 /// Per-env hooks of an experiment.
 pub trait Experiment {
     /// Called once per env when the window starts (after settling).
-    fn setup(&mut self, env: usize, task: &mut TopaEnv);
+    fn setup(&mut self, env: usize, task: &mut RobotEnv);
     /// Called before every policy step of the window (`step` counts from 0) for envs still standing.
-    fn control(&mut self, _step: usize, _env: usize, _task: &mut TopaEnv) {}
+    fn control(&mut self, _step: usize, _env: usize, _task: &mut RobotEnv) {}
     /// Called after every policy step of the window, with the time since the window started: for envs still
     /// standing, or for every env (`fallen` says which) when the experiment continues after falls.
-    fn observe(&mut self, _env: usize, _t: f64, _task: &TopaEnv, _fallen: bool) {}
+    fn observe(&mut self, _env: usize, _t: f64, _task: &RobotEnv, _fallen: bool) {}
     /// Keep measuring a robot that fell (its config must not end episodes on a fall) instead of dropping it.
     fn continue_after_fall(&self) -> bool {
         false
@@ -33,7 +34,7 @@ pub fn run_batch(
     exp: &mut dyn Experiment,
     label: &str,
 ) -> Result<Vec<Option<f64>>> {
-    let mut batch = assets::topa_batch(cfg, n, settings.seed, 0)?;
+    let mut batch = assets::robot_batch(cfg, n, settings.seed, 0)?;
     batch.reset()?;
     for t in batch.tasks_mut() {
         t.set_command_override(Some([0.0; 3]));

@@ -20,107 +20,14 @@
 //! single reset a coin flip. A row reports the mean over the starts, the falls and the starts that stood still.
 
 use anyhow::Result;
-use serde::Serialize;
 use topa_env::state::RobotState;
-use topa_env::TopaEnv;
+use topa_env::RobotEnv;
 
-use super::gait::{GaitAccumulator, GaitStats};
+use super::gait::GaitAccumulator;
+use super::results::{TrackingRow, COMMANDS};
 use super::runner::{run_batch, Experiment};
-use super::{EvalSettings, PolicyRunner};
-
-/// The paper's six commands: (key in paper_tables.toml, title, (v_x, v_y, w_z)).
-pub const COMMANDS: [(&str, &str, [f64; 3]); 6] = [
-    ("walk_forward", "Walk forward: v_x = 0.5 m/s", [0.5, 0.0, 0.0]),
-    ("walk_backward", "Walk backwards: v_x = −0.35 m/s", [-0.35, 0.0, 0.0]),
-    ("walk_right", "Walk right: v_y = 0.5 m/s", [0.0, 0.5, 0.0]),
-    ("walk_left", "Walk left: v_y = −0.5 m/s", [0.0, -0.5, 0.0]),
-    ("rotate_ccw", "Rotate counterclockwise: w_z = 1.0 rad/s", [0.0, 0.0, 1.0]),
-    ("rotate_cw", "Rotate clockwise: w_z = −1.0 rad/s", [0.0, 0.0, -1.0]),
-];
-
-#[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct TrackingRow {
-    pub key: String,
-    pub command: [f64; 3],
-    /// Ours: mean of the three component errors, after the transient, up to a fall.
-    #[serde(deserialize_with = "super::nan_json::f64")]
-    pub mae: f64,
-    /// Ours, per component (v_x, v_y, w_z).
-    #[serde(deserialize_with = "super::nan_json::f64x3")]
-    pub mae_components: [f64; 3],
-    /// Paper-comparable, per component: the whole window from the command's start, continuing after a fall.
-    #[serde(deserialize_with = "super::nan_json::f64x3")]
-    pub mae_whole: [f64; 3],
-    /// Paper-comparable "v_x,y, w_z MAE": the sum of `mae_whole`.
-    #[serde(deserialize_with = "super::nan_json::f64")]
-    pub mae_paper: f64,
-    /// Whole-window means (as `mae_whole`).
-    #[serde(deserialize_with = "super::nan_json::f64")]
-    pub mean_torque: f64,
-    #[serde(deserialize_with = "super::nan_json::f64")]
-    pub mean_roll: f64,
-    #[serde(deserialize_with = "super::nan_json::f64")]
-    pub mean_pitch: f64,
-    /// Whether any start fell.
-    pub fell: bool,
-    /// Seconds into the window of the earliest fall.
-    pub fell_at: Option<f64>,
-    /// The gait after the transient, up to a fall, pooled over the starts.
-    pub gait: GaitStats,
-    /// Initial states the command ran from (1 in reports written before starts were counted).
-    #[serde(default = "one")]
-    pub starts: usize,
-    /// Starts that fell (None in older reports: see `fell`).
-    #[serde(default)]
-    pub falls: Option<usize>,
-    /// Starts that stood still: the mean velocity along the command, after the transient and up to a fall, below
-    /// `STAND_STILL_SHARE` of the command (None in older reports).
-    #[serde(default)]
-    pub stood_still: Option<usize>,
-}
-
-/// Serde default of counts absent from older reports (one start each).
-pub(super) fn one() -> usize {
-    1
-}
-
-impl TrackingRow {
-    /// Starts that fell, also for reports that only say whether one did.
-    pub fn fall_count(&self) -> usize {
-        self.falls.unwrap_or(usize::from(self.fell))
-    }
-}
-
-/// Falls and stand-stills over a set of tracking rows (one command's, a policy's, a group's), counted in runs:
-/// each command from each start.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RunCounts {
-    pub runs: usize,
-    pub falls: usize,
-    /// None when a report among the rows did not count them.
-    pub stood_still: Option<usize>,
-}
-
-impl RunCounts {
-    pub fn of<'a>(rows: impl IntoIterator<Item = &'a TrackingRow>) -> Self {
-        let mut c = RunCounts { runs: 0, falls: 0, stood_still: Some(0) };
-        for t in rows {
-            c.runs += t.starts;
-            c.falls += t.fall_count();
-            c.stood_still = c.stood_still.zip(t.stood_still).map(|(a, b)| a + b);
-        }
-        c
-    }
-    /// "falls/runs".
-    pub fn falls_cell(&self) -> String {
-        format!("{}/{}", self.falls, self.runs)
-    }
-    /// "stand-stills/runs", or "–" where they were not counted.
-    pub fn still_cell(&self) -> String {
-        self.stood_still.map_or("–".into(), |n| format!("{n}/{}", self.runs))
-    }
-}
+use super::settings::EvalSettings;
+use topa_env::policy_runner::PolicyRunner;
 
 /// A start "stands still" when its mean velocity along the command stays below this share of the command.
 pub const STAND_STILL_SHARE: f64 = 0.25;
@@ -216,13 +123,13 @@ struct Tracking {
 }
 
 impl Experiment for Tracking {
-    fn setup(&mut self, env: usize, task: &mut TopaEnv) {
+    fn setup(&mut self, env: usize, task: &mut RobotEnv) {
         task.set_command_override(Some(self.commands[env]));
     }
     fn continue_after_fall(&self) -> bool {
         true
     }
-    fn observe(&mut self, env: usize, t: f64, task: &TopaEnv, fallen: bool) {
+    fn observe(&mut self, env: usize, t: f64, task: &RobotEnv, fallen: bool) {
         self.whole[env].add_state(self.commands[env], task.robot_state());
         if t > self.transient_s && !fallen {
             self.ours[env].add_state(self.commands[env], task.robot_state());
@@ -283,7 +190,7 @@ pub fn run(
     starts: usize,
 ) -> Result<Vec<TrackingRow>> {
     anyhow::ensure!(starts >= 1, "tracking needs at least one start per command (--tracking-starts ≥ 1)");
-    let mut cfg = runner.eval_config(settings)?;
+    let mut cfg = settings.env_config(&runner)?;
     cfg.termination.enabled = false; // the robot stays on the floor after a fall and the window goes on
     let k = COMMANDS.len();
     let commands: Vec<[f64; 3]> = (0..starts * k).map(|i| COMMANDS[i % k].2).collect();

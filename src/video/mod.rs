@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use mujoco_sys::render::{Quality, Renderer};
-use topa_env::TopaEnv;
+use topa_env::RobotEnv;
 
 pub use encode::VideoWriter;
 pub use gl::{GlContext, INSTALL_HINT};
@@ -41,7 +41,7 @@ pub struct VideoRecorder {
 impl VideoRecorder {
     pub fn create(
         path: &Path,
-        env: &TopaEnv,
+        env: &RobotEnv,
         (width, height): (usize, usize),
         fps: u32,
         quality: Quality,
@@ -55,7 +55,7 @@ impl VideoRecorder {
 
     /// Adds the frames due up to time `t` (s since the start): frame k shows the state at the first step at or
     /// after k / fps, so a run of T seconds has T × fps frames.
-    pub fn advance(&mut self, t: f64, env: &mut TopaEnv, text: &(String, String)) -> Result<()> {
+    pub fn advance(&mut self, t: f64, env: &mut RobotEnv, text: &(String, String)) -> Result<()> {
         let due = (t * self.fps as f64 + 1e-9).floor() as usize;
         while self.writer.frames() < due {
             let frame = self.renderer.render(env.data_mut(), Some((&text.0, &text.1)))?;
@@ -75,7 +75,7 @@ impl VideoRecorder {
 }
 
 /// The overlay: commanded and measured (v_x, v_y, w_z), and the time.
-pub fn overlay(env: &TopaEnv, t: f64) -> (String, String) {
+pub fn overlay(env: &RobotEnv, t: f64) -> (String, String) {
     let c = env.command();
     let s = env.robot_state();
     (

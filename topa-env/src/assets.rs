@@ -5,7 +5,7 @@ use std::sync::Arc;
 use mujoco_sys::Model;
 
 use crate::config::EnvConfig;
-use crate::env::TopaEnv;
+use crate::env::RobotEnv;
 use crate::error::Result;
 use crate::indices::RobotIndices;
 use crate::spec::RobotSpec;
@@ -15,25 +15,25 @@ pub use crate::robots::{load_model, load_robot, mjcf_dir, model_path, repo_dir, 
 
 /// `n` envs of the robot `cfg.robot` names, env `i` seeded with (`seed`, stream `i`), stepped on `threads`
 /// threads (0 = rayon's global pool). The model is compiled once and checked against the spec once.
-pub fn topa_batch(cfg: &EnvConfig, n: usize, seed: u64, threads: usize) -> Result<BatchEnv<TopaEnv>> {
+pub fn robot_batch(cfg: &EnvConfig, n: usize, seed: u64, threads: usize) -> Result<BatchEnv<RobotEnv>> {
     let (spec, model) = load_robot(cfg)?;
-    topa_batch_from(model, &spec, cfg, 0, n, seed, threads)
+    robot_batch_from(model, &spec, cfg, 0, n, seed, threads)
 }
 
-/// As `topa_batch`, on an already loaded model of the robot (e.g. a variant of its MJCF).
+/// As `robot_batch`, on an already loaded model of the robot (e.g. a variant of its MJCF).
 pub fn topa_batch_on(
     model: Arc<Model>,
     cfg: &EnvConfig,
     n: usize,
     seed: u64,
     threads: usize,
-) -> Result<BatchEnv<TopaEnv>> {
+) -> Result<BatchEnv<RobotEnv>> {
     let (spec, _) = load_robot(cfg)?;
-    topa_batch_from(model, &spec, cfg, 0, n, seed, threads)
+    robot_batch_from(model, &spec, cfg, 0, n, seed, threads)
 }
 
 /// `n` envs seeded as envs `first`, `first + 1`, … of a larger batch (one MPI rank's share of a run).
-pub fn topa_batch_from(
+pub fn robot_batch_from(
     model: Arc<Model>,
     spec: &Arc<RobotSpec>,
     cfg: &EnvConfig,
@@ -41,7 +41,7 @@ pub fn topa_batch_from(
     n: usize,
     seed: u64,
     threads: usize,
-) -> Result<BatchEnv<TopaEnv>> {
+) -> Result<BatchEnv<RobotEnv>> {
     cfg.validate()?;
     // Apply the timestep and integrator once, so the envs share one model until randomisation copies it.
     let mut model = model;
@@ -59,7 +59,7 @@ pub fn topa_batch_from(
     let cfg = Arc::new(cfg.clone());
     let idx = Arc::new(RobotIndices::resolve(&model, spec)?);
     let envs = (0..n)
-        .map(|i| TopaEnv::with_indices(model.clone(), cfg.clone(), idx.clone(), seed, first + i as u64))
+        .map(|i| RobotEnv::with_indices(model.clone(), cfg.clone(), idx.clone(), seed, first + i as u64))
         .collect::<Result<Vec<_>>>()?;
     BatchEnv::new(envs, threads)
 }

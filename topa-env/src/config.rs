@@ -109,8 +109,10 @@ impl std::fmt::Display for IntegratorChoice {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum TaskKind {
+    /// The robot of `robot` (any spec).
     #[default]
-    Topa,
+    #[serde(alias = "topa")] // what configs said before other robots existed
+    Robot,
     Cartpole,
 }
 
@@ -146,7 +148,7 @@ impl Default for AdversaryBounds {
 impl Default for EnvConfig {
     fn default() -> Self {
         EnvConfig {
-            task: TaskKind::Topa,
+            task: TaskKind::Robot,
             robot: ModelKind::Closed.spec_path().into(),
             timestep: 0.005,
             decimation: 4,
@@ -456,7 +458,7 @@ impl PushConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct TerminationConfig {
     /// A fall ends the episode (false: the episode goes on with the robot on the floor, as an evaluation that
-    /// keeps measuring after a fall needs; `TopaEnv::has_fallen` still tells).
+    /// keeps measuring after a fall needs; `RobotEnv::has_fallen` still tells).
     pub enabled: bool,
     /// Torso origin below this height, m.
     pub min_base_height: f64,

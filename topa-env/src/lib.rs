@@ -9,6 +9,7 @@ pub mod indices;
 pub mod linkage;
 pub mod observation;
 pub mod perturb;
+pub mod policy_runner;
 pub mod rewards;
 pub mod robot;
 pub mod robots;
@@ -21,7 +22,7 @@ pub mod tasks;
 pub mod vec_env;
 
 pub use config::{EnvConfig, IntegratorChoice, TaskKind};
-pub use env::TopaEnv;
+pub use env::RobotEnv;
 pub use error::{EnvError, Result};
 pub use indices::RobotIndices;
 pub use perturb::Perturbation;

@@ -83,7 +83,7 @@ impl StateMirror {
             }
             let name = || model.name_of(ObjType::Joint, j).unwrap_or("?").to_string();
             if t == ffi::mjJNT_BALL {
-                return Err(crate::EnvError::Config(format!(
+                return Err(crate::error::EnvError::Config(format!(
                     "joint '{}' is a ball joint: the state mirror handles hinge, slide and free joints",
                     name()
                 )));
@@ -106,7 +106,7 @@ impl StateMirror {
                 }
             });
             let Some((k, sign)) = partner else {
-                return Err(crate::EnvError::Config(format!(
+                return Err(crate::error::EnvError::Config(format!(
                     "joint '{}' has no mirror image (no joint at ({x:.4}, {:.4}, {z:.4}) with the reflected axis at \
                      qpos0): the model is not left-right symmetric",
                     name(),

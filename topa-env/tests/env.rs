@@ -9,7 +9,7 @@ use rand_chacha::ChaCha8Rng;
 use topa_env::env::{OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_Q};
 use topa_env::symmetry::{self, mirror_mj_state};
 use topa_env::tasks::{cartpole, CartPole};
-use topa_env::{assets, BatchEnv, EnvConfig, ModelKind, Task, TopaEnv, VecEnv};
+use topa_env::{assets, BatchEnv, EnvConfig, ModelKind, RobotEnv, Task, VecEnv};
 
 /// Training config without randomness in the dynamics or the observation.
 fn quiet(kind: ModelKind) -> EnvConfig {
@@ -20,9 +20,9 @@ fn quiet(kind: ModelKind) -> EnvConfig {
     c
 }
 
-fn env(cfg: EnvConfig, seed: u64) -> TopaEnv {
+fn env(cfg: EnvConfig, seed: u64) -> RobotEnv {
     let (_, model) = assets::load_robot(&cfg).unwrap();
-    TopaEnv::new(model, Arc::new(cfg), seed, 0).unwrap()
+    RobotEnv::new(model, Arc::new(cfg), seed, 0).unwrap()
 }
 
 #[test]
@@ -84,7 +84,7 @@ fn standing_still_earns_the_tracking_and_posture_terms() {
 }
 
 /// Mirrors the whole simulation state of `src` into `dst` (same model).
-fn mirror_into(src: &TopaEnv, dst: &mut TopaEnv, obs: &mut [f32]) {
+fn mirror_into(src: &RobotEnv, dst: &mut RobotEnv, obs: &mut [f32]) {
     let m = src.data().model_arc();
     let (p, v) = mirror_mj_state(m, src.data().qpos(), src.data().qvel()).unwrap();
     dst.data_mut().qpos_mut().copy_from_slice(&p);
@@ -148,7 +148,7 @@ fn the_second_robots_dynamics_are_mirror_equivariant() {
 
 fn rollout(threads: usize, seed: u64, steps: usize) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
     let cfg = EnvConfig::default();
-    let mut v = assets::topa_batch(&cfg, 6, seed, threads).unwrap();
+    let mut v = assets::robot_batch(&cfg, 6, seed, threads).unwrap();
     v.reset().unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(99);
     let (mut obs, mut rew, mut done) = (Vec::new(), Vec::new(), Vec::new());
@@ -179,7 +179,7 @@ fn domain_randomisation_stays_within_its_ranges() {
     let model = assets::load_model(ModelKind::Closed).unwrap();
     let nominal_mass = model.body_mass().to_vec();
     let nominal_friction: Vec<f64> = model.geom_friction().iter().map(|f| f[0]).collect();
-    let mut e = TopaEnv::new(model, Arc::new(cfg), 11, 0).unwrap();
+    let mut e = RobotEnv::new(model, Arc::new(cfg), 11, 0).unwrap();
     let mut obs = vec![0.0; OBS_DIM];
     let (mut lo, mut hi) = (f64::MAX, f64::MIN);
     for _ in 0..20 {
@@ -225,7 +225,7 @@ fn pushes_kick_the_base_by_the_configured_speed() {
 fn a_diverging_env_is_reset_and_counted_without_disturbing_the_batch() {
     let cfg = quiet(ModelKind::Closed);
     let run = |sabotage: bool| {
-        let mut v = assets::topa_batch(&cfg, 4, 3, 2).unwrap();
+        let mut v = assets::robot_batch(&cfg, 4, 3, 2).unwrap();
         v.reset().unwrap();
         if sabotage {
             // An absurd force on env 2's feet: the simulation blows up within a step.
@@ -305,14 +305,14 @@ fn snapshot_restore_continues_bit_for_bit() {
 
 fn snapshot_round_trip(cfg: &EnvConfig) {
     let cfg = cfg.clone();
-    let mut a = assets::topa_batch(&cfg, 3, 8, 1).unwrap();
+    let mut a = assets::robot_batch(&cfg, 3, 8, 1).unwrap();
     a.reset().unwrap();
     let act = |k: usize| -> Vec<f32> { (0..30).map(|i| ((i * 7 + k * 13) % 11) as f32 / 11.0 - 0.5).collect() };
     for k in 0..20 {
         a.step(&act(k)).unwrap();
     }
     let snap = a.save_state();
-    let mut b = assets::topa_batch(&cfg, 3, 12345, 2).unwrap();
+    let mut b = assets::robot_batch(&cfg, 3, 12345, 2).unwrap();
     b.reset().unwrap();
     b.load_state(&snap).unwrap();
     assert_eq!(a.obs(), b.obs());
@@ -333,7 +333,7 @@ fn snapshot_restore_under_the_training_preset_and_attack() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/cpu.toml");
     let cfg = EnvConfig::from_table(&trainer::config::TrainConfig::load(&path).unwrap().env).unwrap();
     let n = 8;
-    let mut a = assets::topa_batch(&cfg, n, 8, 1).unwrap();
+    let mut a = assets::robot_batch(&cfg, n, 8, 1).unwrap();
     a.reset().unwrap();
     let pd = 12;
     let perturb = |k: usize| -> Vec<f32> {
@@ -345,7 +345,7 @@ fn snapshot_restore_under_the_training_preset_and_attack() {
         a.step(&act(k)).unwrap();
     }
     let snap = a.save_state();
-    let mut b = assets::topa_batch(&cfg, n, 12345, 1).unwrap();
+    let mut b = assets::robot_batch(&cfg, n, 12345, 1).unwrap();
     b.reset().unwrap();
     b.load_state(&snap).unwrap();
     for k in 30..200 {

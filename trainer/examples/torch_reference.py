@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Torch reference for the nn micro-benchmark (examples/nn_bench.rs): the paper's PPO update shape on CPU.
+"""Torch reference for the nn micro-benchmark (benches/ppo_update.rs in the repository root): the paper's PPO update shape on CPU.
 
 Per minibatch of 6144 rows: actor forward, a second actor forward on another input (symmetry term), critic forward,
 a scalar loss touching all three outputs (mean of squares), backward, plain SGD step. 24 576 samples x 5 epochs =

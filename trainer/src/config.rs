@@ -341,8 +341,8 @@ mod tests {
         assert_eq!((c.run.seed, c.adversary.cycles), (4, 2));
         assert_eq!(c.env["timestep"].as_float(), Some(0.004));
         // Settings that belong to the task are refused in the learner's tables, by name.
-        let bad = serde_json::json!({"adversary": {"max_foot_force": 12.0}});
-        assert!(TrainConfig::from_json(&bad).unwrap_err().contains("max_foot_force"));
+        let bad = serde_json::json!({"adversary": {"task_bound": 12.0}});
+        assert!(TrainConfig::from_json(&bad).unwrap_err().contains("task_bound"));
         let bad = serde_json::json!({"adversary": {"cylces": 2}});
         assert!(TrainConfig::from_json(&bad).unwrap_err().contains("cylces"));
     }

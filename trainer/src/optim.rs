@@ -1,6 +1,6 @@
 //! AdamW (zero weight decay, as the paper's rsl_rl-style PPO) with its moments in plain vectors, so they can be
 //! checkpointed and restored exactly (candle-nn's optimiser keeps them private), plus the global gradient-norm
-//! clip, which candle does not have.
+//! clip, which candle does not have. It implements `candle_nn::Optimizer`, so candle code can drive it.
 
 use candle_core::backprop::GradStore;
 use candle_core::{Result, Tensor, Var};
@@ -11,12 +11,23 @@ pub struct AdamParams {
     pub beta2: f64,
     pub eps: f64,
     pub weight_decay: f64,
+    /// Used by `candle_nn::Optimizer::step` (PPO passes its adaptive rate to `clipped_step` instead).
+    pub learning_rate: f64,
+    /// Global gradient-norm clip of `candle_nn::Optimizer::step` (infinite: none).
+    pub max_grad_norm: f64,
 }
 
 impl Default for AdamParams {
     /// PyTorch's defaults; weight decay 0 (the paper's "decay" is the separate last-layer loss).
     fn default() -> Self {
-        AdamParams { beta1: 0.9, beta2: 0.999, eps: 1e-8, weight_decay: 0.0 }
+        AdamParams {
+            beta1: 0.9,
+            beta2: 0.999,
+            eps: 1e-8,
+            weight_decay: 0.0,
+            learning_rate: 1e-3,
+            max_grad_norm: f64::INFINITY,
+        }
     }
 }
 
@@ -130,6 +141,27 @@ impl AdamW {
     }
 }
 
+impl candle_nn::Optimizer for AdamW {
+    type Config = AdamParams;
+
+    fn new(vars: Vec<Var>, config: AdamParams) -> Result<Self> {
+        Ok(AdamW::new(vars, config))
+    }
+
+    fn step(&mut self, grads: &GradStore) -> Result<()> {
+        let (lr, clip) = (self.params.learning_rate, self.params.max_grad_norm);
+        self.clipped_step(grads, lr, clip).map(|_| ())
+    }
+
+    fn learning_rate(&self) -> f64 {
+        self.params.learning_rate
+    }
+
+    fn set_learning_rate(&mut self, lr: f64) {
+        self.params.learning_rate = lr;
+    }
+}
+
 pub fn global_norm(g: &[Vec<f32>]) -> f64 {
     g.iter().flatten().map(|&x| (x as f64) * (x as f64)).sum::<f64>().sqrt()
 }
@@ -154,6 +186,32 @@ mod tests {
         for (a, b) in after.iter().zip([1.0f32, -2.0, 3.0]) {
             assert!(((b - a) - 0.1 * b.signum()).abs() < 1e-4, "{a} from {b}");
         }
+    }
+
+    #[test]
+    fn through_candle_nn_optimizer_it_matches_candle_nn_adamw() {
+        use candle_nn::Optimizer;
+        let start = [0.5f32, -1.5, 2.0, 0.1];
+        let ours_w = Var::from_vec(start.to_vec(), 4, &Device::Cpu).unwrap();
+        let theirs_w = Var::from_vec(start.to_vec(), 4, &Device::Cpu).unwrap();
+        let params = AdamParams { learning_rate: 0.05, ..Default::default() };
+        let mut ours = <AdamW as Optimizer>::new(vec![ours_w.clone()], params).unwrap();
+        let cfg = candle_nn::ParamsAdamW { lr: 0.05, beta1: 0.9, beta2: 0.999, eps: 1e-8, weight_decay: 0.0 };
+        let mut theirs = candle_nn::AdamW::new(vec![theirs_w.clone()], cfg).unwrap();
+        // A quartic bowl: the gradient changes every step, so the moments matter.
+        let loss = |w: &Var| w.as_tensor().sqr().unwrap().sqr().unwrap().sum_all().unwrap();
+        let first = loss(&ours_w).to_scalar::<f32>().unwrap();
+        for _ in 0..50 {
+            ours.backward_step(&loss(&ours_w)).unwrap();
+            theirs.backward_step(&loss(&theirs_w)).unwrap();
+        }
+        let (a, b) = (ours_w.as_tensor().to_vec1::<f32>().unwrap(), theirs_w.as_tensor().to_vec1::<f32>().unwrap());
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x - y).abs() < 1e-5, "ours {a:?} vs candle-nn {b:?}");
+        }
+        assert!(loss(&ours_w).to_scalar::<f32>().unwrap() < 0.1 * first);
+        ours.set_learning_rate(0.01);
+        assert_eq!(ours.learning_rate(), 0.01);
     }
 
     #[test]

@@ -20,7 +20,7 @@ pub const VERSION: u32 = 1;
 #[serde(deny_unknown_fields)]
 pub struct Provenance {
     pub command: String,
-    pub config: crate::TrainConfig,
+    pub config: crate::config::TrainConfig,
     pub seed: u64,
     pub iterations: usize,
     pub samples: u64,

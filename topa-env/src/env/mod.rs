@@ -33,7 +33,7 @@ struct Nominal {
     geom_friction: Vec<[f64; 3]>,
 }
 
-pub struct TopaEnv {
+pub struct RobotEnv {
     cfg: Arc<EnvConfig>,
     idx: Arc<RobotIndices>,
     nominal: Arc<Nominal>,
@@ -69,7 +69,7 @@ pub struct TopaEnv {
     sim2sim: Option<Sim2Sim>,
 }
 
-impl TopaEnv {
+impl RobotEnv {
     /// A new env on `model` (shared until domain randomisation gives this env its own copy). `seed` and `index`
     /// pick the env's own random stream, so a batch is deterministic whatever the thread count.
     pub fn new(model: Arc<Model>, cfg: Arc<EnvConfig>, seed: u64, index: u64) -> Result<Self> {
@@ -132,7 +132,7 @@ impl TopaEnv {
         } else {
             None
         };
-        Ok(TopaEnv {
+        Ok(RobotEnv {
             data: Data::new(model)?,
             layout: idx.obs_layout(),
             action: vec![0.0; n],
@@ -365,7 +365,7 @@ impl TopaEnv {
     }
 }
 
-impl Task for TopaEnv {
+impl Task for RobotEnv {
     fn obs_dim(&self) -> usize {
         self.layout.dim()
     }

@@ -1,11 +1,11 @@
 //! An env's complete state as flat f64/u64 rows (checkpoints resume bit for bit, evaluation snapshots).
 
-use super::TopaEnv;
+use super::RobotEnv;
 use crate::error::{EnvError, Result};
 use crate::perturb::Perturbation;
 use crate::{state, task};
 
-impl TopaEnv {
+impl RobotEnv {
     /// Appends everything that makes this env's future: the MuJoCo state, the randomised model values, the
     /// command, perturbations, gait timers, counters, the random stream and the sim2sim state.
     pub(super) fn save_snapshot(&self, f: &mut Vec<f64>, u: &mut Vec<u64>) {

@@ -12,7 +12,7 @@
 //! `k` order. It does not depend on how `C` is cut into blocks or on the thread count.
 
 use super::kernels;
-use super::Activation;
+use super::kernels::Activation;
 use std::cell::RefCell;
 use std::sync::OnceLock;
 

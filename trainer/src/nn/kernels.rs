@@ -6,7 +6,14 @@
 //! multiply-add in both, so the two give bit-identical results; the AVX2 copy is just the one LLVM can vectorise
 //! 8 lanes wide.
 
-use super::Activation;
+/// The activation applied after a layer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Activation {
+    /// ELU with α = 1.
+    Elu,
+    /// No activation (the output layer).
+    Identity,
+}
 
 /// `true` when the CPU has AVX2 and FMA (checked once; `is_x86_feature_detected!` caches it).
 #[inline]

@@ -18,7 +18,7 @@
 
 use super::gemm::{self, Epilogue, MatRef, PackedB};
 use super::kernels;
-use super::Activation;
+use super::kernels::Activation;
 use rayon::prelude::*;
 
 /// Rows per block in the batch-parallel products (a multiple of [`gemm::MR`]). Also the granularity of the

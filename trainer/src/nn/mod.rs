@@ -45,10 +45,10 @@
 //! the trainer uses it elsewhere) only splits output tiles, so its results do not depend on the thread count
 //! either (also tested).
 //!
-//! # Speed (paper's update shape; `examples/nn_bench.rs` vs `examples/torch_reference.py`)
+//! # Speed (paper's update shape; `benches/ppo_update.rs` vs `trainer/examples/torch_reference.py`)
 //! On the 2-vCPU AMD EPYC (Zen 3, AVX2) this was written on: ~4.7 k samples/s at 1 thread (torch 2.15:
 //! ~3.8 k; straightforward candle: ~1.8 k). At 2 threads the machine's two vCPUs sometimes share one physical
-//! core: see the report in `examples/nn_bench.rs` for how to read 2-thread numbers.
+//! core: see `benches/ppo_update.rs` for how to read 2-thread numbers.
 
 mod gemm;
 mod kernels;
@@ -56,6 +56,8 @@ mod layer;
 mod ops;
 #[cfg(test)]
 mod tests;
+
+pub use kernels::Activation;
 
 use candle_core::{bail, DType, Device, Result, Storage, Tensor, Var};
 use rand::RngExt;
@@ -68,15 +70,6 @@ pub struct Linear {
     pub weight: Var,
     /// `[out]`.
     pub bias: Var,
-}
-
-/// The activation applied after a layer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Activation {
-    /// ELU with α = 1.
-    Elu,
-    /// No activation (the output layer).
-    Identity,
 }
 
 impl Linear {
@@ -118,10 +111,12 @@ pub fn linear(x: &Tensor, layer: &Linear, act: Activation) -> Result<Tensor> {
     x.apply_op3_arc(w, b, Arc::new(Box::new(ops::LinearOp { act })))
 }
 
-/// The same layer written with plain candle ops (matmul + broadcast_add + elu): the reference for tests and
-/// benchmarks, and the fallback off the CPU.
+/// The same layer as candle-nn's `Linear` and candle's `elu`: the reference for tests and benchmarks, and the
+/// fallback off the CPU.
 pub fn linear_reference(x: &Tensor, layer: &Linear, act: Activation) -> Result<Tensor> {
-    let z = x.matmul(&layer.weight.as_tensor().t()?)?.broadcast_add(layer.bias.as_tensor())?;
+    use candle_core::Module;
+    let z =
+        candle_nn::Linear::new(layer.weight.as_tensor().clone(), Some(layer.bias.as_tensor().clone())).forward(x)?;
     match act {
         Activation::Elu => z.elu(1.0),
         Activation::Identity => Ok(z),
@@ -261,6 +256,13 @@ fn param_slice<'a>(s: &'a Storage, l: &candle_core::Layout) -> &'a [f32] {
 /// Makes this module's kernels, candle (matmul and element-wise ops) and gemm all use `n` threads; see the
 /// module docs. Call once, first thing in `main`, before any candle op or rayon use and before spawning threads.
 /// Fails if the rayon global pool already exists with a different size. Also calls [`keep_freed_memory`].
+/// candle's layer trait, so an `Mlp` composes with candle-nn (`candle_nn::seq().add(mlp)…`).
+impl candle_core::Module for Mlp {
+    fn forward(&self, xs: &Tensor) -> candle_core::Result<Tensor> {
+        Mlp::forward(self, xs)
+    }
+}
+
 pub fn init_threads(n: usize) -> Result<()> {
     let n = n.max(1);
     // Environment writes are only sound while no other thread reads the environment: hence "first thing".

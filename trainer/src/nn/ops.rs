@@ -17,8 +17,8 @@
 //! the block is in cache.
 
 use super::gemm::{MatRef, PackedB};
+use super::kernels::Activation;
 use super::layer;
-use super::Activation;
 use candle_core::{bail, CpuStorage, CustomOp3, Device, Layout, Result, Shape, Storage, Tensor};
 use std::sync::{Arc, Mutex};
 

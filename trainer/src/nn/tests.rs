@@ -374,3 +374,15 @@ fn bench_layer_ops() {
         println!("3 x (fwd + dX + dW) over the layers: {:.1} ms", total * 1e3);
     });
 }
+
+#[test]
+fn an_mlp_composes_with_candle_nn() {
+    // A candle user stacks our network with candle-nn layers through the `Module` trait.
+    use candle_core::Module;
+    let mlp = Mlp::new(&[6, 16, 3], &mut rng(7)).unwrap();
+    let x = rand_tensor(5, 6, 1.0, 8);
+    let model = candle_nn::seq().add(mlp.clone()).add_fn(|t| t.tanh());
+    let y = model.forward(&x).unwrap();
+    let expected = mlp.forward_reference(&x).unwrap().tanh().unwrap();
+    assert!(rel_err(&y, &expected) < 1e-6);
+}

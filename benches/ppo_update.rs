@@ -1,49 +1,20 @@
-//! Micro-benchmark of the networks on the paper's PPO update shape (compare examples/torch_reference.py).
-//!
-//! Per minibatch of 6144 rows: actor forward, a second actor forward on another input (the symmetry term), critic
-//! forward, a scalar loss touching all three outputs (mean of squares), backward, plain SGD step on every var.
-//! 24 576 samples × 5 epochs = 20 minibatches. samples/s = 24 576 / seconds for the whole 5-epoch update (as in
-//! shared/notes/candle-cpu-profile.md); GFLOP/s counts the nominal FLOPs of the whole update (16.76 MFLOP per sample
-//! for the paper's networks, the notes' "≈ 16.8").
-//!
-//! Variants, timed interleaved (round-robin) so that they see the same machine state:
-//! * `plain`: straightforward candle (matmul + broadcast_add + elu, candle's backward);
-//! * `layerwise`: one fused `nn::linear` op per layer;
-//! * `ours`: `nn::Mlp::forward` (the fused layer chain).
+//! The PPO update's networks on the paper's shape (actor and critic 42 → 512 → 256 → 128 → 10 | 1, ELU): per
+//! minibatch of 6144 rows, actor forward, a second actor forward (the symmetry term), critic forward, a loss on all
+//! three, backward, an SGD step; 24 576 samples × 5 epochs. Our fused layer chain (`nn::Mlp::forward`) against the
+//! same network as candle-nn `Linear` layers with candle's backward, timed alternately in one run; prints
+//! samples/s, GFLOP/s (16.76 MFLOP per sample) and ours / candle-nn. `topa bench ppo` adds the torch peer
+//! (trainer/examples/torch_reference.py).
 //!
 //! ```text
-//! cargo run --release -p trainer --example nn_bench -- --threads 2 [--repeats 5] [--variants ours,layerwise,plain]
-//!     [--hidden 512,256,128] [--no-inference]
+//! cargo bench --bench ppo_update -- [--threads 2] [--repeats 3] [--variants ours,layerwise,plain] [--hidden 512,256,128]
 //! ```
 
 use anyhow::Result;
 use candle_core::{Device, Tensor, Var};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
-use trainer::nn::{self, Mlp, MlpScratch};
-
-/// Counts heap allocations (to check that `forward_inference` makes none once warmed up).
-struct CountingAlloc;
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-// SAFETY: forwards to the system allocator.
-unsafe impl GlobalAlloc for CountingAlloc {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        System.alloc(layout)
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        System.dealloc(ptr, layout)
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        System.realloc(ptr, layout, new_size)
-    }
-}
-#[global_allocator]
-static GLOBAL: CountingAlloc = CountingAlloc;
+use trainer::nn::{self, Mlp};
 
 const OBS: usize = 42;
 const ACT: usize = 10;
@@ -61,7 +32,7 @@ enum Variant {
 impl Variant {
     fn name(self) -> &'static str {
         match self {
-            Variant::Plain => "plain candle",
+            Variant::Plain => "candle-nn Linear",
             Variant::Layerwise => "nn::linear per layer",
             Variant::Ours => "nn::Mlp::forward",
         }
@@ -193,38 +164,11 @@ fn main() -> Result<()> {
         );
     }
 
-    if args.iter().any(|a| a == "--no-inference") {
-        return Ok(());
+    if let (Some(o), Some(p)) =
+        (variants.iter().position(|&v| v == Variant::Ours), variants.iter().position(|&v| v == Variant::Plain))
+    {
+        let best = |i: usize| times[i].iter().copied().fold(f64::INFINITY, f64::min);
+        println!("ratio ours / candle-nn (best update time): {:.2}×", best(p) / best(o));
     }
-    // Rollout inference: batched actor forward, 4096 rows.
-    let s = &setups[0];
-    let rows = 4096;
-    let x = s.obs.narrow(0, 0, rows)?;
-    let xv = x.flatten_all()?.to_vec1::<f32>()?;
-    let mut out = Vec::new();
-    let mut scratch = MlpScratch::default();
-    let n = 200;
-    for _ in 0..10 {
-        s.actor.forward_inference(&xv, rows, &mut out, &mut scratch);
-    }
-    let allocs = ALLOCATIONS.load(Ordering::Relaxed);
-    let t = Instant::now();
-    for _ in 0..n {
-        s.actor.forward_inference(&xv, rows, &mut out, &mut scratch);
-    }
-    let ours = t.elapsed().as_secs_f64() / n as f64;
-    let allocs = ALLOCATIONS.load(Ordering::Relaxed) - allocs;
-    let t = Instant::now();
-    for _ in 0..n / 4 {
-        std::hint::black_box(s.actor.forward_reference(&x)?);
-    }
-    let plain = t.elapsed().as_secs_f64() / (n / 4) as f64;
-    println!(
-        "RESULT threads={threads} inference {rows} rows: forward_inference {:.3} ms/call ({} heap allocations in {n} \
-         calls), plain candle forward {:.3} ms/call",
-        ours * 1e3,
-        allocs,
-        plain * 1e3
-    );
     Ok(())
 }

@@ -1,0 +1,102 @@
+//! The evaluation's settings, shared by every experiment: physics timestep and integrator, the sim2sim models,
+//! settling, threads, seed; and the env config a policy is evaluated with.
+
+use std::path::Path;
+
+use anyhow::{bail, Result};
+use serde::{Deserialize, Serialize};
+use topa_env::policy_runner::PolicyRunner;
+use topa_env::sim2sim::Sim2SimConfig;
+use topa_env::EnvConfig;
+
+/// Settings shared by the experiments.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct EvalSettings {
+    /// Physics timestep, s (training: 0.005). The policy period is kept: decimation = policy_dt / timestep.
+    /// `None`: the sim2sim mode's own timestep if it has one, else 0.0025.
+    pub timestep: Option<f64>,
+    /// "ideal", "realistic", or the sim2sim file used.
+    pub sim2sim_mode: String,
+    /// The sensor, estimator, latency and motor models (all off: ideal).
+    pub sim2sim: Sim2SimConfig,
+    /// Model = the MJCF's RK4, which keeps the linkage exact.
+    pub integrator: topa_env::IntegratorChoice,
+    /// Standing still on a zero command before each experiment starts, s.
+    pub settle_s: f64,
+    /// Worker threads (0 = all cores).
+    pub threads: usize,
+    pub seed: u64,
+}
+
+/// The realistic mode's models (configs/sim2sim/realistic.toml, built in).
+const REALISTIC: &str = include_str!("../../configs/sim2sim/realistic.toml");
+
+impl EvalSettings {
+    /// The env config to evaluate `runner`'s policy with: its training config made deterministic, on the
+    /// robot it runs on, at the evaluation timestep and the policy's own control period.
+    pub fn env_config(&self, runner: &PolicyRunner) -> Result<EnvConfig> {
+        let s = self;
+        let train = EnvConfig::from_table(&runner.policy.meta.provenance.config.env)?;
+        let mut c = train.for_evaluation();
+        c.robot = runner.robot().path.to_string_lossy().into_owned();
+        c.integrator = s.integrator;
+        // The evaluation model is the MJCF's: training's solver shortcuts stay in training.
+        c.solver_iterations = None;
+        c.solver_tolerance = None;
+        c.timestep = s.timestep();
+        c.sim2sim = s.sim2sim.clone();
+        let dec = runner.policy.meta.policy_dt / c.timestep;
+        if (dec - dec.round()).abs() > 1e-6 || dec.round() < 1.0 {
+            bail!(
+                "the evaluation timestep {} s does not divide the policy period {} s",
+                c.timestep,
+                runner.policy.meta.policy_dt
+            );
+        }
+        c.decimation = dec.round() as usize;
+        c.episode_length_s = 1e9; // experiments end runs themselves
+        c.action_scale = runner.policy.meta.action_scale;
+        c.action_clip = runner.policy.meta.action_clip;
+        c.validate()?;
+        Ok(c)
+    }
+
+    /// The physics timestep the experiments run at.
+    pub fn timestep(&self) -> f64 {
+        self.timestep.unwrap_or(if self.sim2sim.timestep > 0.0 { self.sim2sim.timestep } else { 0.0025 })
+    }
+
+    /// Sets the sim2sim mode: "ideal", "realistic", or a TOML file of models (which may start from another with
+    /// `base = "…"`; configs/sim2sim/realistic.toml is the reference).
+    pub fn with_sim2sim(mut self, spec: &str) -> Result<Self> {
+        let cfg = match spec {
+            "ideal" => Sim2SimConfig::default(),
+            "realistic" => toml::from_str(REALISTIC)
+                .map_err(|e| anyhow::anyhow!("built-in configs/sim2sim/realistic.toml: {e}"))?,
+            file => {
+                let table = trainer::config::load_table(Path::new(file), 0)?;
+                toml::Value::Table(table)
+                    .try_into()
+                    .map_err(|e| anyhow::anyhow!("sim2sim file {file}: {}", e.to_string().replace('\n', " ")))?
+            }
+        };
+        cfg.validate().map_err(|e| anyhow::anyhow!("sim2sim '{spec}': {e}"))?;
+        self.sim2sim = cfg;
+        self.sim2sim_mode = spec.to_string();
+        Ok(self)
+    }
+}
+
+impl Default for EvalSettings {
+    fn default() -> Self {
+        EvalSettings {
+            timestep: None,
+            sim2sim_mode: "ideal".into(),
+            sim2sim: Sim2SimConfig::default(),
+            integrator: topa_env::IntegratorChoice::Model,
+            settle_s: 2.0,
+            threads: 0,
+            seed: 1,
+        }
+    }
+}
