@@ -122,41 +122,7 @@ pub enum Cmd {
         check: bool,
     },
     /// Train a policy with PPO (symmetry loss, last-layer decay; --adversary for the cyclic adversary).
-    Train {
-        /// TOML preset: configs/paper.toml (the paper's table) or configs/cpu.toml (2-core machine).
-        #[arg(long)]
-        config: Option<PathBuf>,
-        /// TopA's model: closed (the paper's C) or open (the serial baseline O); shorthand for --robot with
-        /// assets/robots/topa_closed.toml or topa_open.toml.
-        #[arg(long, conflicts_with = "robot")]
-        model: Option<topa_env::ModelKind>,
-        /// The robot to train: its spec (a TOML beside its MJCF), e.g. assets/robots/kestrel.toml.
-        #[arg(long)]
-        robot: Option<PathBuf>,
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Output folder (default runs/<model>[-adversary]-seed<S>).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Run the paper's cyclic adversarial schedule (phase 1, then 2/3 × cycles).
-        #[arg(long)]
-        adversary: bool,
-        /// Threads for environments and networks (default: the config's; 0 = all cores).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Override run.iterations (plain PPO only); with --resume, lengthens or shortens the run.
-        #[arg(long)]
-        iterations: Option<usize>,
-        /// Continue the run in this folder from its latest checkpoint.
-        #[arg(long, conflicts_with = "config")]
-        resume: Option<PathBuf>,
-        /// Start the policy from another run's checkpoint (folder or sidecar), e.g. C+A from C.
-        #[arg(long)]
-        init_from: Option<PathBuf>,
-        /// No progress bar; a status line every 10 iterations on stderr (for nohup logs).
-        #[arg(long)]
-        quiet: bool,
-    },
+    Train(crate::train_cmd::TrainArgs),
 }
 
 #[derive(Subcommand)]

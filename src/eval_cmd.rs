@@ -9,7 +9,7 @@ use topa_env::IntegratorChoice;
 
 use crate::eval::ablate::{self, Extent};
 use crate::eval::results::Group;
-use crate::eval::settings::EvalSettings;
+use crate::eval::settings::{EvalSettings, Sim2SimMode};
 use crate::eval::{heatmaps, noise, push, report, tracking};
 use topa_env::policy_runner::PolicyRunner;
 
@@ -27,7 +27,7 @@ pub struct Common {
     /// ideal (the simulator's state), realistic (state estimator, IMU and encoder noise, latency, motor
     /// torque–speed limits: configs/sim2sim/realistic.toml), or a TOML file with your own mix.
     #[arg(long, global = true, default_value = "ideal")]
-    pub sim2sim: String,
+    pub sim2sim: Sim2SimMode,
     /// Integrator: model (the MJCF's RK4), euler, rk4, implicit.
     #[arg(long, global = true, default_value = "model")]
     pub integrator: IntegratorChoice,
@@ -60,7 +60,7 @@ pub struct VideoArgs {
     pub video: Option<PathBuf>,
     /// Frame size WIDTHxHEIGHT.
     #[arg(long, default_value = "640x480")]
-    pub video_size: String,
+    pub video_size: crate::video::FrameSize,
     /// Frames per second.
     #[arg(long, default_value_t = 30)]
     pub fps: u32,
@@ -71,9 +71,7 @@ pub struct VideoArgs {
 
 impl VideoArgs {
     pub fn options(&self) -> Result<crate::play::PlayOptions> {
-        let bad = || anyhow::anyhow!("--video-size takes WIDTHxHEIGHT, e.g. 640x480, got '{}'", self.video_size);
-        let (w, h) = self.video_size.split_once('x').ok_or_else(bad)?;
-        let size = (w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?);
+        let size = (self.video_size.width, self.video_size.height);
         anyhow::ensure!(self.fps > 0, "--fps must be at least 1");
         Ok(crate::play::PlayOptions {
             video: self.video.clone(),

@@ -18,21 +18,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 info::run(&model, json)
             }
         }
-        Cmd::Train { config, model, robot, seed, out, adversary, threads, iterations, resume, init_from, quiet } => {
-            train_cmd::run(train_cmd::TrainArgs {
-                config,
-                model,
-                robot,
-                seed,
-                out,
-                adversary,
-                threads,
-                iterations,
-                resume,
-                init_from,
-                quiet,
-            })
-        }
+        Cmd::Train(args) => train_cmd::run(args),
         Cmd::Eval { cmd, common } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             eval_cmd::run_eval(cmd, common)

@@ -14,17 +14,41 @@ use trainer::metrics::MetricsWriter;
 use trainer::policy_file::{self, PolicyMeta, Provenance};
 use trainer::{IterationLog, TrainConfig, Trainer};
 
+/// `topa train`'s arguments.
+#[derive(clap::Args, Debug, Clone)]
 pub struct TrainArgs {
+    /// TOML preset: configs/paper.toml (the paper's table) or configs/cpu.toml (2-core machine).
+    #[arg(long)]
     pub config: Option<PathBuf>,
+    /// TopA's model: closed (the paper's C) or open (the serial baseline O); shorthand for --robot with
+    /// assets/robots/topa_closed.toml or topa_open.toml.
+    #[arg(long, conflicts_with = "robot")]
     pub model: Option<ModelKind>,
+    /// The robot to train: its spec (a TOML beside its MJCF), e.g. assets/robots/kestrel.toml.
+    #[arg(long)]
     pub robot: Option<PathBuf>,
+    #[arg(long)]
     pub seed: Option<u64>,
+    /// Output folder (default runs/<model>[-adversary]-seed<S>).
+    #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Run the paper's cyclic adversarial schedule (phase 1, then 2/3 × cycles).
+    #[arg(long)]
     pub adversary: bool,
+    /// Threads for environments and networks (default: the config's; 0 = all cores).
+    #[arg(long)]
     pub threads: Option<usize>,
+    /// Override run.iterations (plain PPO only); with --resume, lengthens or shortens the run.
+    #[arg(long)]
     pub iterations: Option<usize>,
+    /// Continue the run in this folder from its latest checkpoint.
+    #[arg(long, conflicts_with = "config")]
     pub resume: Option<PathBuf>,
+    /// Start the policy from another run's checkpoint (folder or sidecar), e.g. C+A from C.
+    #[arg(long)]
     pub init_from: Option<PathBuf>,
+    /// No progress bar; a status line every 10 iterations on stderr (for nohup logs).
+    #[arg(long)]
     pub quiet: bool,
 }
 
@@ -38,7 +62,7 @@ pub fn load_config(path: &Path) -> Result<(TrainConfig, EnvConfig)> {
 /// The task's batched envs for a config: a robot's (the env crate checks its model against its spec) or the cart-pole.
 pub fn task_env(cfg: &TrainConfig) -> Result<Box<dyn VecEnv>> {
     let env = EnvConfig::from_table(&cfg.env)?;
-    Ok(Box::new(assets::robot_batch(&env, cfg.run.num_envs, cfg.run.seed, 0)?))
+    Ok(Box::new(topa_env::vec_env::robot_batch(&env, cfg.run.num_envs, cfg.run.seed, 0)?))
 }
 
 /// This rank's share of the run's envs: `run.num_envs / ranks` of them, env `i` seeded as env
@@ -55,7 +79,7 @@ fn rank_env(cfg: &TrainConfig, comm: &dyn Comm) -> Result<Box<dyn VecEnv>> {
     Ok(match env.task {
         TaskKind::Robot => {
             let (spec, model) = assets::load_robot(&env)?;
-            Box::new(assets::robot_batch_from(model, &spec, &env, first, share, cfg.run.seed, 0)?)
+            Box::new(topa_env::vec_env::robot_batch_from(model, &spec, &env, first, share, cfg.run.seed, 0)?)
         }
         TaskKind::Cartpole => {
             let model = topa_env::tasks::cartpole::model()?;

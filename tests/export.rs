@@ -8,7 +8,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use topa::eval::settings::EvalSettings;
 use topa_env::policy_runner::PolicyRunner;
-use topa_env::robot::{ModelKind, N_MOTORS};
+use topa_env::topa::{ModelKind, N_MOTORS};
 use topa_env::{assets, RobotEnv, Task};
 use tract_onnx::prelude::*;
 

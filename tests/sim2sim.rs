@@ -4,12 +4,12 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use topa::eval::settings::EvalSettings;
+use topa::eval::settings::{EvalSettings, Sim2SimMode};
 use topa_env::policy_runner::PolicyRunner;
 use topa_env::{assets, ModelKind, RobotEnv, Task};
 
 fn realistic() -> EvalSettings {
-    EvalSettings::default().with_sim2sim("realistic").unwrap()
+    EvalSettings::default().with_sim2sim(&Sim2SimMode::Realistic).unwrap()
 }
 
 fn c_policy() -> PolicyRunner {

@@ -12,7 +12,7 @@ use topa_env::{assets, EnvConfig, ModelKind, VecEnv};
 
 /// Single-thread mj_step/s of the model the envs use, stepping the stand pose with small random targets.
 pub fn physics_steps_per_second(cfg: &EnvConfig, seconds: f64) -> Result<f64> {
-    let batch = assets::robot_batch(cfg, 1, 0, 1)?;
+    let batch = topa_env::vec_env::robot_batch(cfg, 1, 0, 1)?;
     let env = &batch.tasks()[0];
     let model = env.data().model_arc().clone();
     let mut d = Data::new(model.clone())?;
@@ -37,7 +37,7 @@ pub fn physics_steps_per_second(cfg: &EnvConfig, seconds: f64) -> Result<f64> {
 
 /// env-steps/s of `n` batched envs on `threads` threads stepping random actions for `seconds`.
 pub fn env_steps_per_second(cfg: &EnvConfig, n: usize, threads: usize, seconds: f64) -> Result<f64> {
-    let mut v = assets::robot_batch(cfg, n, 1, threads)?;
+    let mut v = topa_env::vec_env::robot_batch(cfg, n, 1, threads)?;
     v.reset()?;
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let actions: Vec<Vec<f32>> =

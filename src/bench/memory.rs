@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use topa_env::{assets, EnvConfig, ModelKind, VecEnv};
+use topa_env::{EnvConfig, ModelKind, VecEnv};
 use trainer::policy_file::Policy;
 
 /// Resident set size and minor page faults of this process.
@@ -39,7 +39,7 @@ struct Use {
 /// Steps `n` envs for `steps` policy steps, acting with `policy` (or uniformly random actions in ±`random`),
 /// recording the largest MuJoCo memory use.
 fn measure(cfg: &EnvConfig, n: usize, steps: usize, policy: Option<&mut Policy>, random: f32) -> Result<Use> {
-    let mut v = assets::robot_batch(cfg, n, 7, 0)?;
+    let mut v = topa_env::vec_env::robot_batch(cfg, n, 7, 0)?;
     v.reset()?;
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let mut actions = vec![0.0f32; n * v.action_dim()];
@@ -70,7 +70,7 @@ pub fn run(envs: usize, steps: usize, policy: &std::path::Path) -> Result<()> {
     cfg.integrator = topa_env::IntegratorChoice::Euler;
     let (rss0, faults0) = rss_and_faults();
     let start = Instant::now();
-    let mut v = assets::robot_batch(&cfg, envs, 1, 0)?;
+    let mut v = topa_env::vec_env::robot_batch(&cfg, envs, 1, 0)?;
     v.reset()?;
     let ready = start.elapsed().as_secs_f64();
     let (rss1, faults1) = rss_and_faults();

@@ -39,7 +39,7 @@ pub fn worker(threads: usize, repeats: usize) -> Result<WorkerResult> {
     cfg.network.actor_hidden = vec![512, 256, 128];
     cfg.network.critic_hidden = vec![512, 256, 128];
     let env: Box<dyn VecEnv> =
-        Box::new(topa_env::assets::robot_batch(&topa_env::EnvConfig::from_table(&cfg.env)?, cfg.run.num_envs, 1, 0)?);
+        Box::new(topa_env::vec_env::robot_batch(&topa_env::EnvConfig::from_table(&cfg.env)?, cfg.run.num_envs, 1, 0)?);
     let mut t = Trainer::new(cfg, env, false)?;
     t.iterate()?; // warm-up: buffers, first-touch, thread start
     let log = t.iterate()?.context("iteration")?;

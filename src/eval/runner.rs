@@ -4,7 +4,7 @@
 
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
-use topa_env::{assets, EnvConfig, RobotEnv, VecEnv};
+use topa_env::{EnvConfig, RobotEnv, VecEnv};
 
 use super::settings::EvalSettings;
 use topa_env::policy_runner::PolicyRunner;
@@ -34,7 +34,7 @@ pub fn run_batch(
     exp: &mut dyn Experiment,
     label: &str,
 ) -> Result<Vec<Option<f64>>> {
-    let mut batch = assets::robot_batch(cfg, n, settings.seed, 0)?;
+    let mut batch = topa_env::vec_env::robot_batch(cfg, n, settings.seed, 0)?;
     batch.reset()?;
     for t in batch.tasks_mut() {
         t.set_command_override(Some([0.0; 3]));

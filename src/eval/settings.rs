@@ -1,7 +1,7 @@
 //! The evaluation's settings, shared by every experiment: physics timestep and integrator, the sim2sim models,
 //! settling, threads, seed; and the env config a policy is evaluated with.
 
-use std::path::Path;
+use std::path::PathBuf;
 
 use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
@@ -15,8 +15,8 @@ pub struct EvalSettings {
     /// Physics timestep, s (training: 0.005). The policy period is kept: decimation = policy_dt / timestep.
     /// `None`: the sim2sim mode's own timestep if it has one, else 0.0025.
     pub timestep: Option<f64>,
-    /// "ideal", "realistic", or the sim2sim file used.
-    pub sim2sim_mode: String,
+    /// Which sim2sim models `sim2sim` holds.
+    pub sim2sim_mode: Sim2SimMode,
     /// The sensor, estimator, latency and motor models (all off: ideal).
     pub sim2sim: Sim2SimConfig,
     /// Model = the MJCF's RK4, which keeps the linkage exact.
@@ -66,24 +66,67 @@ impl EvalSettings {
         self.timestep.unwrap_or(if self.sim2sim.timestep > 0.0 { self.sim2sim.timestep } else { 0.0025 })
     }
 
-    /// Sets the sim2sim mode: "ideal", "realistic", or a TOML file of models (which may start from another with
-    /// `base = "…"`; configs/sim2sim/realistic.toml is the reference).
-    pub fn with_sim2sim(mut self, spec: &str) -> Result<Self> {
-        let cfg = match spec {
-            "ideal" => Sim2SimConfig::default(),
-            "realistic" => toml::from_str(REALISTIC)
+    /// Sets the sim2sim mode and loads its models.
+    pub fn with_sim2sim(mut self, mode: &Sim2SimMode) -> Result<Self> {
+        let cfg = match mode {
+            Sim2SimMode::Ideal => Sim2SimConfig::default(),
+            Sim2SimMode::Realistic => toml::from_str(REALISTIC)
                 .map_err(|e| anyhow::anyhow!("built-in configs/sim2sim/realistic.toml: {e}"))?,
-            file => {
-                let table = trainer::config::load_table(Path::new(file), 0)?;
-                toml::Value::Table(table)
-                    .try_into()
-                    .map_err(|e| anyhow::anyhow!("sim2sim file {file}: {}", e.to_string().replace('\n', " ")))?
+            Sim2SimMode::File(file) => {
+                let table = trainer::config::load_table(file, 0)?;
+                toml::Value::Table(table).try_into().map_err(|e| {
+                    anyhow::anyhow!("sim2sim file {}: {}", file.display(), e.to_string().replace('\n', " "))
+                })?
             }
         };
-        cfg.validate().map_err(|e| anyhow::anyhow!("sim2sim '{spec}': {e}"))?;
+        cfg.validate().map_err(|e| anyhow::anyhow!("sim2sim '{mode}': {e}"))?;
         self.sim2sim = cfg;
-        self.sim2sim_mode = spec.to_string();
+        self.sim2sim_mode = mode.clone();
         Ok(self)
+    }
+}
+
+/// The sim2sim models an evaluation runs with: none (the simulator's state), the built-in realistic set
+/// (configs/sim2sim/realistic.toml), or a TOML file of models (which may start from another with `base = "…"`).
+/// Written as "ideal", "realistic" or the file's path, on the command line and in result files.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(into = "String", from = "String")]
+pub enum Sim2SimMode {
+    Ideal,
+    Realistic,
+    File(PathBuf),
+}
+
+impl From<String> for Sim2SimMode {
+    fn from(s: String) -> Self {
+        match s.as_str() {
+            "ideal" => Sim2SimMode::Ideal,
+            "realistic" => Sim2SimMode::Realistic,
+            _ => Sim2SimMode::File(PathBuf::from(s)),
+        }
+    }
+}
+
+impl From<Sim2SimMode> for String {
+    fn from(m: Sim2SimMode) -> String {
+        m.to_string()
+    }
+}
+
+impl std::str::FromStr for Sim2SimMode {
+    type Err = std::convert::Infallible;
+    fn from_str(s: &str) -> std::result::Result<Self, Self::Err> {
+        Ok(Sim2SimMode::from(s.to_string()))
+    }
+}
+
+impl std::fmt::Display for Sim2SimMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Sim2SimMode::Ideal => f.write_str("ideal"),
+            Sim2SimMode::Realistic => f.write_str("realistic"),
+            Sim2SimMode::File(p) => write!(f, "{}", p.display()),
+        }
     }
 }
 
@@ -91,12 +134,31 @@ impl Default for EvalSettings {
     fn default() -> Self {
         EvalSettings {
             timestep: None,
-            sim2sim_mode: "ideal".into(),
+            sim2sim_mode: Sim2SimMode::Ideal,
             sim2sim: Sim2SimConfig::default(),
             integrator: topa_env::IntegratorChoice::Model,
             settle_s: 2.0,
             threads: 0,
             seed: 1,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sim2sim_modes_are_written_as_before() {
+        for (mode, text) in [
+            (Sim2SimMode::Ideal, "\"ideal\""),
+            (Sim2SimMode::Realistic, "\"realistic\""),
+            (Sim2SimMode::File("configs/sim2sim/realistic.toml".into()), "\"configs/sim2sim/realistic.toml\""),
+        ] {
+            assert_eq!(serde_json::to_string(&mode).unwrap(), text);
+            assert_eq!(serde_json::from_str::<Sim2SimMode>(text).unwrap(), mode);
+        }
+        let missing = EvalSettings::default().with_sim2sim(&Sim2SimMode::File("no/such.toml".into()));
+        assert!(format!("{:#}", missing.unwrap_err()).contains("no/such.toml"));
     }
 }

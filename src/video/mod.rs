@@ -86,3 +86,37 @@ pub fn overlay(env: &RobotEnv, t: f64) -> (String, String) {
         ),
     )
 }
+
+/// A frame size: `WIDTHxHEIGHT` on the command line (e.g. 640x480).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrameSize {
+    pub width: usize,
+    pub height: usize,
+}
+
+impl std::str::FromStr for FrameSize {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let bad = || format!("a frame size is WIDTHxHEIGHT, e.g. 640x480, not '{s}'");
+        let (w, h) = s.split_once('x').ok_or_else(bad)?;
+        let (width, height) = (w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?);
+        if width == 0 || height == 0 {
+            return Err(bad());
+        }
+        Ok(FrameSize { width, height })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::FrameSize;
+
+    #[test]
+    fn frame_sizes_parse_and_bad_ones_name_the_form() {
+        assert_eq!("640x480".parse::<FrameSize>(), Ok(FrameSize { width: 640, height: 480 }));
+        for bad in ["640", "640x", "x480", "0x480", "640×480"] {
+            let e = bad.parse::<FrameSize>().unwrap_err();
+            assert!(e.contains("WIDTHxHEIGHT") && e.contains(bad), "{e}");
+        }
+    }
+}

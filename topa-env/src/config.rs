@@ -6,7 +6,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{EnvError, Result};
-use crate::robot::ModelKind;
+use crate::topa::ModelKind;
 
 /// The task's settings: the robot, its simulation, commands, rewards, noise, randomisation, pushes, termination,
 /// the realistic-sim2sim models and the adversary's bounds.

@@ -1,7 +1,7 @@
 //! The paper's observation `[v, ω, g, q − q_nominal, q̇, a_prev, c]` for a robot with n motors: one layout that the
 //! env writes, the mirror maps permute and the ONNX export documents.
 
-use crate::robot::N_MOTORS;
+use crate::topa::N_MOTORS;
 
 /// The blocks of the observation, in order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -13,8 +13,8 @@ use crate::assets;
 use crate::indices::RobotIndices;
 use crate::linkage::JointMap;
 use crate::observation::{Block, ObsLayout};
-use crate::robot::ModelKind;
 use crate::spec::RobotSpec;
+use crate::topa::ModelKind;
 
 /// A policy ready to act on the robot it is evaluated on: the robot it was trained on, or — for a policy trained
 /// on a simplified model (TopA's serial chain, whose spec `approximates` the closed one) — the real robot, through

@@ -4,7 +4,7 @@
 pub use trainer::symmetry::{SignedPermutation, Symmetry};
 
 use crate::observation::{Mirror, ObsLayout};
-use crate::robot;
+use crate::topa;
 
 /// Mirror of a robot-frame vector (x forward, y left, z up) in the XZ plane: y flips.
 const VEC_SIGN: [f32; 3] = [1.0, -1.0, 1.0];
@@ -32,7 +32,7 @@ pub fn for_layout(layout: &ObsLayout, motor_perm: &[usize], motor_sign: &[f32]) 
 
 /// S_o and S_a for the TopA observation `[v, ω, g, q, q̇, a_prev, c]` (3+3+3+10+10+10+3) and action (10).
 pub fn topa() -> Symmetry {
-    let (leg_perm, leg_sign) = robot::mirror_legs_map();
+    let (leg_perm, leg_sign) = topa::mirror_legs_map();
     for_layout(&crate::observation::TOPA, &leg_perm, &leg_sign)
 }
 

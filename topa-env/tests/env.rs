@@ -59,7 +59,7 @@ fn standing_still_earns_the_tracking_and_posture_terms() {
     // The action that sends the keyframe's holding targets (nominal pose plus gravity compensation).
     let m = e.data().model();
     let key = e.indices().stand_key;
-    let nominal = topa_env::robot::nominal_actuated(ModelKind::Closed);
+    let nominal = topa_env::topa::nominal_actuated(ModelKind::Closed);
     let hold: Vec<f32> = (0..10).map(|i| ((m.key_ctrl(key)[i] - nominal[i]) / cfg.action_scale) as f32).collect();
     for _ in 0..50 {
         let out = e.step(&hold, &mut obs);
@@ -148,7 +148,7 @@ fn the_second_robots_dynamics_are_mirror_equivariant() {
 
 fn rollout(threads: usize, seed: u64, steps: usize) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
     let cfg = EnvConfig::default();
-    let mut v = assets::robot_batch(&cfg, 6, seed, threads).unwrap();
+    let mut v = topa_env::vec_env::robot_batch(&cfg, 6, seed, threads).unwrap();
     v.reset().unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(99);
     let (mut obs, mut rew, mut done) = (Vec::new(), Vec::new(), Vec::new());
@@ -225,7 +225,7 @@ fn pushes_kick_the_base_by_the_configured_speed() {
 fn a_diverging_env_is_reset_and_counted_without_disturbing_the_batch() {
     let cfg = quiet(ModelKind::Closed);
     let run = |sabotage: bool| {
-        let mut v = assets::robot_batch(&cfg, 4, 3, 2).unwrap();
+        let mut v = topa_env::vec_env::robot_batch(&cfg, 4, 3, 2).unwrap();
         v.reset().unwrap();
         if sabotage {
             // An absurd force on env 2's feet: the simulation blows up within a step.
@@ -259,7 +259,7 @@ fn a_model_too_small_for_its_contacts_stops_the_batch_with_the_fix() {
     );
     let model = Arc::new(mujoco_sys::Model::from_xml_string(&small, &dir).unwrap());
     assert_eq!(model.raw().nconmax, 4);
-    let mut v = assets::topa_batch_on(model, &quiet(ModelKind::Closed), 2, 1, 1).unwrap();
+    let mut v = topa_env::vec_env::robot_batch_on(model, &quiet(ModelKind::Closed), 2, 1, 1).unwrap();
     let err = (|| -> anyhow::Result<()> {
         v.reset()?;
         for _ in 0..50 {
@@ -305,14 +305,14 @@ fn snapshot_restore_continues_bit_for_bit() {
 
 fn snapshot_round_trip(cfg: &EnvConfig) {
     let cfg = cfg.clone();
-    let mut a = assets::robot_batch(&cfg, 3, 8, 1).unwrap();
+    let mut a = topa_env::vec_env::robot_batch(&cfg, 3, 8, 1).unwrap();
     a.reset().unwrap();
     let act = |k: usize| -> Vec<f32> { (0..30).map(|i| ((i * 7 + k * 13) % 11) as f32 / 11.0 - 0.5).collect() };
     for k in 0..20 {
         a.step(&act(k)).unwrap();
     }
     let snap = a.save_state();
-    let mut b = assets::robot_batch(&cfg, 3, 12345, 2).unwrap();
+    let mut b = topa_env::vec_env::robot_batch(&cfg, 3, 12345, 2).unwrap();
     b.reset().unwrap();
     b.load_state(&snap).unwrap();
     assert_eq!(a.obs(), b.obs());
@@ -333,7 +333,7 @@ fn snapshot_restore_under_the_training_preset_and_attack() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/cpu.toml");
     let cfg = EnvConfig::from_table(&trainer::config::TrainConfig::load(&path).unwrap().env).unwrap();
     let n = 8;
-    let mut a = assets::robot_batch(&cfg, n, 8, 1).unwrap();
+    let mut a = topa_env::vec_env::robot_batch(&cfg, n, 8, 1).unwrap();
     a.reset().unwrap();
     let pd = 12;
     let perturb = |k: usize| -> Vec<f32> {
@@ -345,7 +345,7 @@ fn snapshot_restore_under_the_training_preset_and_attack() {
         a.step(&act(k)).unwrap();
     }
     let snap = a.save_state();
-    let mut b = assets::robot_batch(&cfg, n, 12345, 1).unwrap();
+    let mut b = topa_env::vec_env::robot_batch(&cfg, n, 12345, 1).unwrap();
     b.reset().unwrap();
     b.load_state(&snap).unwrap();
     for k in 30..200 {

@@ -8,8 +8,8 @@ use std::path::Path;
 
 use rand::{RngExt, SeedableRng};
 use topa_env::linkage::Linkage;
-use topa_env::robot::{self, ModelKind, N_MOTORS};
 use topa_env::spec::RobotSpec;
+use topa_env::topa::{self, ModelKind, N_MOTORS};
 
 fn linkage(kind: ModelKind) -> (RobotSpec, Linkage) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../assets/robots/{}.toml", kind.robot_name()));
@@ -20,10 +20,10 @@ fn linkage(kind: ModelKind) -> (RobotSpec, Linkage) {
 
 /// Random motor positions with the ankle joint (ankle motor − knee) inside its range.
 fn random_motors(rng: &mut rand_chacha::ChaCha8Rng) -> Vec<f64> {
-    let nominal = robot::nominal_motors();
+    let nominal = topa::nominal_motors();
     (0..N_MOTORS)
         .map(|i| {
-            let spread = if i % robot::N_LEG == robot::ANKLE { 0.3 } else { 0.4 };
+            let spread = if i % topa::N_LEG == topa::ANKLE { 0.3 } else { 0.4 };
             nominal[i] + rng.random_range(-spread..spread)
         })
         .collect()
@@ -32,12 +32,12 @@ fn random_motors(rng: &mut rand_chacha::ChaCha8Rng) -> Vec<f64> {
 #[test]
 fn closed_chain_maps_reproduce_the_papers_m() {
     let (_, mut l) = linkage(ModelKind::Closed);
-    assert_eq!(l.nominal_motors(), robot::nominal_motors().as_slice());
+    assert_eq!(l.nominal_motors(), topa::nominal_motors().as_slice());
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
     for _ in 0..20 {
         let q: Vec<f64> = random_motors(&mut rng);
         let arr: [f64; N_MOTORS] = q.clone().try_into().unwrap();
-        let want = robot::motor_to_joint(&arr);
+        let want = topa::motor_to_joint(&arr);
         let got = l.joints(&q).unwrap();
         for i in 0..N_MOTORS {
             assert!((got[i] - want[i]).abs() < 1e-6, "joint {i}: {} vs M·q {}", got[i], want[i]);
@@ -45,7 +45,7 @@ fn closed_chain_maps_reproduce_the_papers_m() {
         let j = l.jacobian(&q).unwrap();
         for i in 0..N_MOTORS {
             let e: [f64; N_MOTORS] = std::array::from_fn(|k| if k == i { 1.0 } else { 0.0 });
-            let col = robot::motor_to_joint(&e);
+            let col = topa::motor_to_joint(&e);
             for r in 0..N_MOTORS {
                 assert!((j[(r, i)] - col[r]).abs() < 1e-6, "J[{r},{i}] = {} vs M {}", j[(r, i)], col[r]);
             }
@@ -53,7 +53,7 @@ fn closed_chain_maps_reproduce_the_papers_m() {
         // Torques: τ_m = Jᵀ τ_j, the paper's Mᵀ.
         let tau_j: Vec<f64> = (0..N_MOTORS).map(|_| rng.random_range(-20.0..20.0)).collect();
         let tau_m = l.motor_torques(&q, &tau_j).unwrap();
-        let want = robot::joint_to_motor_torque(&<[f64; N_MOTORS]>::try_from(tau_j.clone()).unwrap());
+        let want = topa::joint_to_motor_torque(&<[f64; N_MOTORS]>::try_from(tau_j.clone()).unwrap());
         for i in 0..N_MOTORS {
             assert!((tau_m[i] - want[i]).abs() < 1e-5, "τ_m[{i}] {} vs Mᵀτ {}", tau_m[i], want[i]);
         }
@@ -79,7 +79,7 @@ fn jacobian_matches_finite_differences_of_the_closed_loop() {
 fn open_model_maps_are_the_identity() {
     let (spec, mut l) = linkage(ModelKind::Open);
     assert!(spec.loops.is_empty());
-    let q: Vec<f64> = robot::nominal_joints().iter().map(|x| x + 0.1).collect();
+    let q: Vec<f64> = topa::nominal_joints().iter().map(|x| x + 0.1).collect();
     assert_eq!(l.joints(&q).unwrap(), q);
     assert_eq!(l.jacobian(&q).unwrap(), nalgebra::DMatrix::identity(N_MOTORS, N_MOTORS));
 }
@@ -93,7 +93,7 @@ fn topas_linear_map_is_detected_and_exactly_m() {
     let j = map.matrix(N_MOTORS).expect("TopA's linkage is linear");
     for i in 0..N_MOTORS {
         let e: [f64; N_MOTORS] = std::array::from_fn(|k| if k == i { 1.0 } else { 0.0 });
-        let col = robot::motor_to_joint(&e);
+        let col = topa::motor_to_joint(&e);
         for r in 0..N_MOTORS {
             assert_eq!(j[(r, i)], col[r], "J[{r},{i}]");
         }
@@ -104,9 +104,9 @@ fn topas_linear_map_is_detected_and_exactly_m() {
     for _ in 0..50 {
         let q = random_motors(&mut rng);
         map.positions(&q, &mut out).unwrap();
-        assert_eq!(out, robot::motor_to_joint(&<[f64; N_MOTORS]>::try_from(q.clone()).unwrap()).to_vec());
+        assert_eq!(out, topa::motor_to_joint(&<[f64; N_MOTORS]>::try_from(q.clone()).unwrap()).to_vec());
         map.velocities(&q, &q, &mut out).unwrap();
-        assert_eq!(out, robot::motor_to_joint(&<[f64; N_MOTORS]>::try_from(q.clone()).unwrap()).to_vec());
+        assert_eq!(out, topa::motor_to_joint(&<[f64; N_MOTORS]>::try_from(q.clone()).unwrap()).to_vec());
     }
 }
 
@@ -116,21 +116,21 @@ fn topas_linear_map_is_detected_and_exactly_m() {
 #[test]
 fn the_solver_stays_on_the_robots_branch_across_the_ranges() {
     let (spec, mut l) = linkage(ModelKind::Closed);
-    let (knee, ankle) = (&spec.motors[robot::KNEE], &spec.motors[robot::ANKLE]);
-    let mut q = robot::nominal_motors().to_vec();
+    let (knee, ankle) = (&spec.motors[topa::KNEE], &spec.motors[topa::ANKLE]);
+    let mut q = topa::nominal_motors().to_vec();
     for a in 0..=10 {
         for b in 0..=10 {
             let lerp = |r: [f64; 2], t: f64| r[0] + (r[1] - r[0]) * (0.02 + 0.96 * t);
             let k = lerp(knee.motor_range, a as f64 / 10.0);
             let aj = lerp(ankle.joint_range, b as f64 / 10.0);
-            q[robot::KNEE] = k;
-            q[robot::ANKLE] = k + aj;
+            q[topa::KNEE] = k;
+            q[topa::ANKLE] = k + aj;
             let got = l.joints(&q).unwrap();
             assert!(
-                (got[robot::ANKLE] - aj).abs() < 1e-6,
+                (got[topa::ANKLE] - aj).abs() < 1e-6,
                 "knee {k:.3}, ankle motor {:.3}: ankle joint {:.4} instead of {aj:.4}",
-                q[robot::ANKLE],
-                got[robot::ANKLE]
+                q[topa::ANKLE],
+                got[topa::ANKLE]
             );
         }
     }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use mujoco_sys::{ffi, Data, Model, ObjType};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use topa_env::robot::{self, ModelKind, N_MOTORS};
+use topa_env::topa::{self, ModelKind, N_MOTORS};
 use topa_env::{assets, RobotIndices};
 
 fn load(kind: ModelKind) -> (Arc<Model>, RobotIndices) {
@@ -49,10 +49,10 @@ fn median(v: &mut [f64]) -> f64 {
 fn closed_linkage_tracks_the_paper_coupling_under_random_motor_targets() {
     let (model, idx) = load(ModelKind::Closed);
     assert_eq!(model.timestep(), 0.005, "the linkage is tested at the training timestep");
-    let knee = |leg: usize| idx.joint_qpos[leg * 5 + robot::KNEE];
-    let ankle = |leg: usize| idx.joint_qpos[leg * 5 + robot::ANKLE];
-    let motor = |leg: usize| idx.actuated_qpos[leg * 5 + robot::ANKLE];
-    let ranges = robot::actuated_range(ModelKind::Closed);
+    let knee = |leg: usize| idx.joint_qpos[leg * 5 + topa::KNEE];
+    let ankle = |leg: usize| idx.joint_qpos[leg * 5 + topa::ANKLE];
+    let motor = |leg: usize| idx.actuated_qpos[leg * 5 + topa::ANKLE];
+    let ranges = topa::actuated_range(ModelKind::Closed);
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let mut d = Data::new(model.clone()).unwrap();
     d.reset_keyframe(idx.stand_key).unwrap();
@@ -185,13 +185,13 @@ fn open_and_closed_reach_the_same_joint_angles_for_mapped_targets() {
     let mut worst: f64 = 0.0;
     for _ in 0..5 {
         // A random reachable pose: joint targets inside the joint ranges, mapped to motor targets.
-        let joint_ranges = robot::per_motor(|m| m.joint_range);
-        let nominal = robot::nominal_joints();
+        let joint_ranges = topa::per_motor(|m| m.joint_range);
+        let nominal = topa::nominal_joints();
         let joints: [f64; N_MOTORS] = std::array::from_fn(|i| {
             let [lo, hi] = joint_ranges[i];
             (nominal[i] + rng.random_range(-0.3..0.3)).clamp(lo + 0.05, hi - 0.05)
         });
-        let motors = robot::joint_to_motor(&joints);
+        let motors = topa::joint_to_motor(&joints);
         let settle = |m: &Arc<Model>, idx: &RobotIndices, ctrl: &[f64; N_MOTORS]| {
             let mut d = Data::new(m.clone()).unwrap();
             d.reset_keyframe(idx.stand_key).unwrap();
@@ -205,7 +205,7 @@ fn open_and_closed_reach_the_same_joint_angles_for_mapped_targets() {
         };
         let qc = settle(&mc, &ic, &motors);
         // The open model is given joint targets = M · (closed motor targets).
-        let qo = settle(&mo, &io, &robot::motor_to_joint(&motors));
+        let qo = settle(&mo, &io, &topa::motor_to_joint(&motors));
         for i in 0..N_MOTORS {
             worst = worst.max((qc[i] - qo[i]).abs());
         }

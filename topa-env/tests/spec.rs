@@ -3,8 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
-use topa_env::robot::{self, ModelKind};
 use topa_env::spec::{RobotSpec, SpecError};
+use topa_env::topa::{self, ModelKind};
 
 fn robots() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/robots")
@@ -16,14 +16,14 @@ fn topa_specs_load_and_match_the_model() {
         let (s, model) = RobotSpec::load(&robots().join(format!("{}.toml", kind.robot_name()))).unwrap();
         assert_eq!(s.name, kind.robot_name());
         assert_eq!(model.nu(), s.n_motors());
-        assert_eq!(s.motors.iter().map(|m| m.actuator.clone()).collect::<Vec<_>>(), robot::actuator_names(kind));
-        assert_eq!(s.motors.iter().map(|m| m.drives.clone()).collect::<Vec<_>>(), robot::actuated_joint_names(kind));
-        assert_eq!(s.motors.iter().map(|m| m.joint.clone()).collect::<Vec<_>>(), robot::joint_names());
-        assert_eq!(s.nominal_joints(), robot::nominal_joints().to_vec());
-        let (perm, sign) = robot::mirror_legs_map();
+        assert_eq!(s.motors.iter().map(|m| m.actuator.clone()).collect::<Vec<_>>(), topa::actuator_names(kind));
+        assert_eq!(s.motors.iter().map(|m| m.drives.clone()).collect::<Vec<_>>(), topa::actuated_joint_names(kind));
+        assert_eq!(s.motors.iter().map(|m| m.joint.clone()).collect::<Vec<_>>(), topa::joint_names());
+        assert_eq!(s.nominal_joints(), topa::nominal_joints().to_vec());
+        let (perm, sign) = topa::mirror_legs_map();
         assert_eq!(s.mirror_map(), (perm.to_vec(), sign.to_vec()));
-        assert_eq!(s.group("hip_roll"), &[robot::HIP_ROLL, robot::N_LEG + robot::HIP_ROLL]);
-        assert_eq!(s.group("ankle_pitch"), &[robot::ANKLE, robot::N_LEG + robot::ANKLE]);
+        assert_eq!(s.group("hip_roll"), &[topa::HIP_ROLL, topa::N_LEG + topa::HIP_ROLL]);
+        assert_eq!(s.group("ankle_pitch"), &[topa::ANKLE, topa::N_LEG + topa::ANKLE]);
         assert_eq!(s.loops.len(), if kind == ModelKind::Closed { 2 } else { 0 });
         assert_eq!(s.feet[1].site, "r_foot_site");
     }

@@ -74,7 +74,7 @@ impl RobotEnv {
     /// pick the env's own random stream, so a batch is deterministic whatever the thread count.
     pub fn new(model: Arc<Model>, cfg: Arc<EnvConfig>, seed: u64, index: u64) -> Result<Self> {
         cfg.validate()?;
-        let (spec, _) = crate::robots::load_robot(&cfg)?;
+        let (spec, _) = crate::assets::load_robot(&cfg)?;
         let idx = Arc::new(RobotIndices::resolve(&model, &spec)?);
         Self::with_indices(model, cfg, idx, seed, index)
     }
