@@ -104,6 +104,13 @@ pub fn sections(paper: &Path) -> Result<Vec<Section>> {
         let path: Vec<&str> = table.split('.').collect();
         let about = schemas.property(&path).and_then(|(_, p)| description(p)).unwrap_or_default();
         let mut rows = Vec::new();
+        // Optional keys (no default: the model's or the robot's own value) are in the schema, not the table.
+        let optional: Vec<(String, Json)> = schemas
+            .property(&path)
+            .map(|(root, node)| resolve(root, node))
+            .and_then(|n| n.get("properties").and_then(|p| p.as_object()))
+            .map(|props| props.iter().filter(|(k, _)| !keys.contains(k)).map(|(k, v)| (k.clone(), v.clone())).collect())
+            .unwrap_or_default();
         for key in keys {
             let full: Vec<&str> = path.iter().copied().chain([key.as_str()]).collect();
             let (root, prop) =
@@ -120,6 +127,18 @@ pub fn sections(paper: &Path) -> Result<Vec<Section>> {
                     .flatten()
                     .collect::<Vec<_>>()
                     .join(" "),
+                key,
+            });
+        }
+        for (key, prop) in optional {
+            let full: Vec<&str> = path.iter().copied().chain([key.as_str()]).collect();
+            let root = if path.first() == Some(&"env") { &schemas.env } else { &schemas.learner };
+            let paper_value = lookup(&paper_values, &full).map(|v| format!("`{v}`")).unwrap_or_default();
+            rows.push(Row {
+                ty: type_name(root, &prop),
+                default: "none".into(),
+                paper: paper_value,
+                description: description(&prop).unwrap_or_default(),
                 key,
             });
         }

@@ -8,10 +8,10 @@ use candle_core::{Device, Tensor};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use topa::eval::settings::EvalSettings;
-use topa::eval::{noise, push, tracking};
+use topa::eval::{noise, push, results, tracking};
 use topa::play::PlayOptions;
 use topa_env::policy_runner::PolicyRunner;
-use topa_env::topa::{self, ModelKind, N_MOTORS};
+use topa_env::topa::{self as topa_ref, ModelKind, N_MOTORS};
 use topa_env::{assets, EnvConfig, RobotEnv, Task};
 use trainer::nn::Mlp;
 use trainer::normalizer::Normalizer;
@@ -67,8 +67,8 @@ fn constant_policy(dir: &Path, name: &str, model: ModelKind, action: [f32; N_MOT
 /// The action that sends the closed model's keyframe targets (nominal pose + gravity compensation): it stands.
 fn hold_action() -> [f32; N_MOTORS] {
     let m = assets::load_model(ModelKind::Closed).unwrap();
-    let key = m.id(mujoco_sys::ObjType::Key, topa::STAND_KEY).unwrap();
-    let nominal = topa::nominal_motors();
+    let key = m.id(mujoco_sys::ObjType::Key, topa_ref::STAND_KEY).unwrap();
+    let nominal = topa_ref::nominal_motors();
     let scale = EnvConfig::default().action_scale;
     std::array::from_fn(|i| ((m.key_ctrl(key)[i] - nominal[i]) / scale) as f32)
 }
@@ -77,8 +77,8 @@ fn hold_action() -> [f32; N_MOTORS] {
 fn crouch_action() -> [f32; N_MOTORS] {
     let mut a = [0.0f32; N_MOTORS];
     for leg in 0..2 {
-        a[leg * 5 + topa::KNEE] = 6.0;
-        a[leg * 5 + topa::ANKLE] = 6.0;
+        a[leg * 5 + topa_ref::KNEE] = 6.0;
+        a[leg * 5 + topa_ref::ANKLE] = 6.0;
     }
     a
 }
@@ -135,10 +135,10 @@ fn a_commands_row_is_the_mean_over_its_starts_with_falls_and_stand_stills_counte
     assert!((one.mae_whole[2] - 0.1).abs() < 1e-12);
     // Counted over several rows in runs (command × start); a row from a report that did not count stand-stills
     // leaves them unknown, its fall counted from `fell`.
-    let n = tracking::RunCounts::of([&row, &one]);
+    let n = results::RunCounts::of([&row, &one]);
     assert_eq!((n.falls_cell(), n.still_cell()), ("1/4".to_string(), "1/4".to_string()));
-    let old = tracking::TrackingRow { starts: 1, falls: None, stood_still: None, ..row.clone() };
-    let n = tracking::RunCounts::of([&row, &old]);
+    let old = results::TrackingRow { starts: 1, falls: None, stood_still: None, ..row.clone() };
+    let n = results::RunCounts::of([&row, &old]);
     assert_eq!((n.runs, n.falls, n.still_cell()), (4, 2, "–".to_string()));
 }
 
@@ -268,7 +268,7 @@ fn noise_runs_are_seeded_and_success_is_counted_right() {
 fn open_policies_are_mapped_through_m() {
     // joint → motor → joint is exact to 1e-12.
     let q: [f64; N_MOTORS] = std::array::from_fn(|i| 0.37 * i as f64 - 1.1);
-    let back = topa::motor_to_joint(&topa::joint_to_motor(&q));
+    let back = topa_ref::motor_to_joint(&topa_ref::joint_to_motor(&q));
     assert!(q.iter().zip(back).all(|(a, b)| (a - b).abs() < 1e-12));
     // An open-model policy's joint-space action comes out in motor space: a_m = M⁻¹ a_j.
     let dir = tempdir("open");
@@ -278,11 +278,14 @@ fn open_policies_are_mapped_through_m() {
     assert_eq!((r.trained_on(), r.robot().name.as_str()), ("topa_open", "topa_closed"));
     let mut out = Vec::new();
     r.act(&[0.0; 42], &mut out);
-    let back = topa::motor_to_joint(&std::array::from_fn::<f32, N_MOTORS, _>(|i| out[i]));
+    let back = topa_ref::motor_to_joint(&std::array::from_fn::<f32, N_MOTORS, _>(|i| out[i]));
     for i in 0..N_MOTORS {
         assert!((back[i] - aj[i]).abs() < 1e-6, "{i}: {} vs {}", back[i], aj[i]);
     }
-    assert!((out[topa::ANKLE] - (aj[topa::KNEE] + aj[topa::ANKLE])).abs() < 1e-6, "ankle motor = knee + ankle");
+    assert!(
+        (out[topa_ref::ANKLE] - (aj[topa_ref::KNEE] + aj[topa_ref::ANKLE])).abs() < 1e-6,
+        "ankle motor = knee + ankle"
+    );
     std::fs::remove_dir_all(dir).ok();
 }
 

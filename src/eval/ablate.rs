@@ -285,6 +285,7 @@ pub fn write(a: &Ablation, out: &Path) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::eval::results::{NoiseRow, TrackingRow};
 
     #[test]
     fn push_grid_flags_are_checked_and_described() {

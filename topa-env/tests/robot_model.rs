@@ -49,6 +49,26 @@ fn median(v: &mut [f64]) -> f64 {
 fn closed_linkage_tracks_the_paper_coupling_under_random_motor_targets() {
     let (model, idx) = load(ModelKind::Closed);
     assert_eq!(model.timestep(), 0.005, "the linkage is tested at the training timestep");
+    linkage_holds(model, &idx, 1e-2);
+}
+
+/// The training model's speed-ups (Euler; a solver capped at 5 Newton iterations, tolerance 1e-6: what
+/// configs/experiments/fast_solver.toml trains with) still hold the loop: the connect stays closed to the same
+/// bounds as with the MJCF's settings, and the ankle follows the paper's coupling within Euler's known error.
+#[test]
+fn closed_linkage_holds_under_the_fast_training_solver() {
+    let (mut model, idx) = load(ModelKind::Closed);
+    let m = Arc::make_mut(&mut model);
+    m.set_integrator(mujoco_sys::Integrator::Euler);
+    m.set_solver_iterations(5);
+    m.set_solver_tolerance(1e-6);
+    linkage_holds(model, &idx, 2e-2);
+}
+
+/// Base pinned in the air, random motor targets every 20 ms for 3 s, then 2 s at rest: the ankle must equal
+/// ankle motor − knee (the paper's M) within `moving_bound` rad in motion and 1e-3 at rest, and the loop's connect
+/// stay closed (1 mm in motion, 0.1 mm at rest).
+fn linkage_holds(model: Arc<Model>, idx: &RobotIndices, moving_bound: f64) {
     let knee = |leg: usize| idx.joint_qpos[leg * 5 + topa::KNEE];
     let ankle = |leg: usize| idx.joint_qpos[leg * 5 + topa::ANKLE];
     let motor = |leg: usize| idx.actuated_qpos[leg * 5 + topa::ANKLE];
@@ -66,7 +86,7 @@ fn closed_linkage_tracks_the_paper_coupling_under_random_motor_targets() {
                 d.ctrl_mut()[i] = rng.random_range(lo..hi);
             }
         }
-        pin_base(&mut d, &idx, 1.0);
+        pin_base(&mut d, idx, 1.0);
         d.step().unwrap();
         for leg in 0..2 {
             let q = d.qpos();
@@ -89,7 +109,7 @@ fn closed_linkage_tracks_the_paper_coupling_under_random_motor_targets() {
         median(&mut moving_res)
     );
     eprintln!("linkage at rest:   ankle error max {ra:.2e} rad; connect residual max {rr:.2e} m");
-    assert!(ma < 1e-2, "ankle ≠ ankle motor − knee by {ma} rad in motion");
+    assert!(ma < moving_bound, "ankle ≠ ankle motor − knee by {ma} rad in motion");
     assert!(ra < 1e-3, "ankle ≠ ankle motor − knee by {ra} rad at rest");
     assert!(mr < 1e-3, "loop opened by {mr} m in motion");
     assert!(rr < 1e-4, "loop opened by {rr} m at rest");
