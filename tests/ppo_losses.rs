@@ -5,7 +5,6 @@ use candle_core::{Device, Tensor, Var};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use topa::train_cmd::load_config;
-use topa_env::symmetry;
 use trainer::actor_critic::ActorCritic;
 use trainer::config::{LossConfig, PpoConfig, TrainConfig};
 use trainer::ppo::{self, Agent, Batch};
@@ -14,7 +13,7 @@ use trainer::storage::Rollout;
 fn agent(seed: u64, sym: bool, losses: LossConfig) -> Agent {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let ac = ActorCritic::new(42, 10, &[16, 8], &[16, 8], 0.7, &mut rng).unwrap();
-    Agent::new(ac, PpoConfig::default(), losses, sym.then(symmetry::topa))
+    Agent::new(ac, PpoConfig::default(), losses, sym.then(topa_env::topa::symmetry))
 }
 
 fn batch(seed: u64, rows: usize) -> Batch {
@@ -116,7 +115,7 @@ fn decay_touches_only_the_actors_last_layer() {
 /// Sets the actor to an equivariant-by-construction network: hidden units in mirror pairs
 /// h = ELU(W o + b), h' = ELU(W S_o o + b), output V h + S_a V h' + c with S_a c = c.
 fn make_equivariant(a: &Agent, rng: &mut ChaCha8Rng) {
-    let s = symmetry::topa();
+    let s = topa_env::topa::symmetry();
     let layers = &a.ac.actor.layers;
     assert_eq!(layers.len(), 2, "one hidden layer");
     let k = layers[0].out_dim() / 2;
@@ -163,7 +162,7 @@ fn symmetry_loss_is_zero_for_an_equivariant_policy_and_positive_otherwise() {
         ac,
         PpoConfig::default(),
         LossConfig { symmetry_coef: 1.0, decay_coef: 0.0 },
-        Some(symmetry::topa()),
+        Some(topa_env::topa::symmetry()),
     );
     let b = batch(6, 32);
     let random = term(&a, &b, 3).1;

@@ -1,8 +1,6 @@
 //! The paper's observation `[v, ω, g, q − q_nominal, q̇, a_prev, c]` for a robot with n motors: one layout that the
 //! env writes, the mirror maps permute and the ONNX export documents.
 
-use crate::topa::N_MOTORS;
-
 /// The blocks of the observation, in order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Block {
@@ -110,17 +108,6 @@ impl ObsLayout {
     }
 }
 
-/// TopA's layout (10 motors): 42 values.
-pub const TOPA: ObsLayout = ObsLayout::new(N_MOTORS);
-pub const OBS_DIM: usize = TOPA.dim();
-pub const OBS_LIN_VEL: usize = TOPA.offset(Block::LinVel);
-pub const OBS_ANG_VEL: usize = TOPA.offset(Block::AngVel);
-pub const OBS_GRAVITY: usize = TOPA.offset(Block::Gravity);
-pub const OBS_Q: usize = TOPA.offset(Block::MotorPos);
-pub const OBS_QD: usize = TOPA.offset(Block::MotorVel);
-pub const OBS_LAST_ACTION: usize = TOPA.offset(Block::LastAction);
-pub const OBS_COMMAND: usize = TOPA.offset(Block::Command);
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -136,6 +123,5 @@ mod tests {
             }
             assert_eq!(next, l.dim());
         }
-        assert_eq!((OBS_DIM, OBS_Q, OBS_COMMAND), (42, 9, 39));
     }
 }

@@ -4,7 +4,6 @@
 pub use trainer::symmetry::{SignedPermutation, Symmetry};
 
 use crate::observation::{Mirror, ObsLayout};
-use crate::topa;
 
 /// Mirror of a robot-frame vector (x forward, y left, z up) in the XZ plane: y flips.
 const VEC_SIGN: [f32; 3] = [1.0, -1.0, 1.0];
@@ -28,12 +27,6 @@ pub fn for_layout(layout: &ObsLayout, motor_perm: &[usize], motor_sign: &[f32]) 
     let mut act = SignedPermutation::identity(layout.n_motors);
     act.set_block(0, motor_perm, motor_sign);
     Symmetry { obs, act }
-}
-
-/// S_o and S_a for the TopA observation `[v, ω, g, q, q̇, a_prev, c]` (3+3+3+10+10+10+3) and action (10).
-pub fn topa() -> Symmetry {
-    let (leg_perm, leg_sign) = topa::mirror_legs_map();
-    for_layout(&crate::observation::TOPA, &leg_perm, &leg_sign)
 }
 
 /// The XZ-plane mirror of a whole MuJoCo state (for equivariance checks and data augmentation), derived from the
@@ -144,7 +137,7 @@ mod tests {
 
     #[test]
     fn topa_maps_are_involutions_with_the_right_signs() {
-        let s = topa();
+        let s = crate::topa::symmetry();
         assert!(s.obs.is_involution() && s.act.is_involution());
         assert_eq!(s.obs.len(), 42);
         let x: Vec<f32> = (0..42).map(|i| i as f32 + 1.0).collect();

@@ -1,13 +1,15 @@
 //! TopA as the paper states it: motor and joint names per leg, nominal pose, limits, the knee–ankle map
 //! `joint = M · motor` with M = [[1, 0], [-1, 1]] (paper, Hardware platform), and the left↔right mirror.
 //! Nothing in the env reads these (it reads the robot's spec, assets/robots/*.toml, and computes the maps from
-//! the MJCF): they are the independent reference the tests check the spec and the computed maps against, plus
-//! the `--model closed|open` shorthand for TopA's two specs.
+//! the MJCF): they are the independent reference the tests check the spec, the computed maps, the observation
+//! layout and the mirror maps against, plus the `--model closed|open` shorthand for TopA's two specs.
 //!
 //! Vectors of 10 follow the actuator order of the MJCF: left leg (hip roll, hip yaw, hip pitch, knee, ankle),
 //! then right leg. "Motor space" is what the motors see (closed model); "joint space" is the kinematic joints
 //! (the open model's actuated joints). The two differ only in the ankle entry: ankle_joint = ankle_motor − knee.
 
+use crate::observation::{Block, ObsLayout};
+use crate::symmetry::Symmetry;
 use serde::{Deserialize, Serialize};
 
 pub const N_LEG: usize = 5;
@@ -292,6 +294,24 @@ pub fn mirror_legs<T: Copy + std::ops::Neg<Output = T>>(v: &[T; N_MOTORS]) -> [T
 /// The mirror as a signed permutation of the 10 entries: `out[i] = sign[i] * in[perm[i]]`.
 pub fn mirror_legs_map() -> ([usize; N_MOTORS], [f32; N_MOTORS]) {
     (std::array::from_fn(|i| (i + N_LEG) % N_MOTORS), std::array::from_fn(|i| LEG_MIRROR_SIGN[i % N_LEG] as f32))
+}
+
+/// TopA's observation layout (10 motors): 42 values, and where each block starts.
+pub const OBS: ObsLayout = ObsLayout::new(N_MOTORS);
+pub const OBS_DIM: usize = OBS.dim();
+pub const OBS_LIN_VEL: usize = OBS.offset(Block::LinVel);
+pub const OBS_ANG_VEL: usize = OBS.offset(Block::AngVel);
+pub const OBS_GRAVITY: usize = OBS.offset(Block::Gravity);
+pub const OBS_Q: usize = OBS.offset(Block::MotorPos);
+pub const OBS_QD: usize = OBS.offset(Block::MotorVel);
+pub const OBS_LAST_ACTION: usize = OBS.offset(Block::LastAction);
+pub const OBS_COMMAND: usize = OBS.offset(Block::Command);
+
+/// S_o and S_a for TopA's observation `[v, ω, g, q, q̇, a_prev, c]` (3+3+3+10+10+10+3) and action (10), from the
+/// paper's left↔right mirror (the env derives the same maps from the robot's spec and MJCF).
+pub fn symmetry() -> Symmetry {
+    let (leg_perm, leg_sign) = mirror_legs_map();
+    crate::symmetry::for_layout(&OBS, &leg_perm, &leg_sign)
 }
 
 #[cfg(test)]

@@ -6,9 +6,9 @@ use std::sync::Arc;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use topa_env::env::{OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_Q};
 use topa_env::symmetry::{self, mirror_mj_state};
 use topa_env::tasks::{cartpole, CartPole};
+use topa_env::topa::{OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_Q};
 use topa_env::{assets, BatchEnv, EnvConfig, ModelKind, RobotEnv, Task, VecEnv};
 
 /// Training config without randomness in the dynamics or the observation.
@@ -135,7 +135,7 @@ fn mirror_equivariance(robot: &str) -> f32 {
 
 #[test]
 fn closed_model_dynamics_are_mirror_equivariant() {
-    assert_eq!(env(quiet(ModelKind::Closed), 1).symmetry(), Some(symmetry::topa()));
+    assert_eq!(env(quiet(ModelKind::Closed), 1).symmetry(), Some(topa_env::topa::symmetry()));
     let worst = mirror_equivariance("assets/robots/topa_closed.toml");
     assert!(worst < 1e-3, "mirrored dynamics differ by {worst}: a sign in S_o/S_a or the model is wrong");
 }

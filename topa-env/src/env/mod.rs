@@ -21,10 +21,6 @@ use crate::state::{self, quat_of, RobotState};
 use crate::symmetry::{self, Symmetry};
 use crate::task::{StepOutcome, Task};
 
-pub use crate::observation::{
-    OBS_ANG_VEL, OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_LIN_VEL, OBS_Q, OBS_QD,
-};
-
 /// Model parameters before randomisation, restored at every reset.
 #[derive(Debug)]
 struct Nominal {
