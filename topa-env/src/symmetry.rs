@@ -133,8 +133,6 @@ pub fn mirror_mj_state(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
-
     #[test]
     fn topa_maps_are_involutions_with_the_right_signs() {
         let s = crate::topa::symmetry();
