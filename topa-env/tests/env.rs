@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use topa_env::symmetry::{self, mirror_mj_state};
+use topa_env::symmetry::mirror_mj_state;
 use topa_env::tasks::{cartpole, CartPole};
 use topa_env::topa::{OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_Q};
 use topa_env::{assets, BatchEnv, EnvConfig, ModelKind, RobotEnv, Task, VecEnv};
