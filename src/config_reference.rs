@@ -82,7 +82,15 @@ impl Section {
     pub fn dotted_keys(&self) -> impl Iterator<Item = String> + '_ {
         self.rows.iter().map(|r| format!("{}.{}", self.table, r.key))
     }
+
+    /// The keys every resolved config has (the optional ones, default "none", left out).
+    pub fn resolved_keys(&self) -> impl Iterator<Item = String> + '_ {
+        self.rows.iter().filter(|r| r.default != OPTIONAL).map(|r| format!("{}.{}", self.table, r.key))
+    }
 }
+
+/// The default column of a key that has none (the model's or the robot's own value applies).
+const OPTIONAL: &str = "none";
 
 fn schema_of<T: JsonSchema>() -> Json {
     schemars::schema_for!(T).to_value()
@@ -109,7 +117,16 @@ pub fn sections(paper: &Path) -> Result<Vec<Section>> {
             .property(&path)
             .map(|(root, node)| resolve(root, node))
             .and_then(|n| n.get("properties").and_then(|p| p.as_object()))
-            .map(|props| props.iter().filter(|(k, _)| !keys.contains(k)).map(|(k, v)| (k.clone(), v.clone())).collect())
+            .map(|props| {
+                props
+                    .iter()
+                    .filter(|(k, _)| {
+                        let full: Vec<&str> = path.iter().copied().chain([k.as_str()]).collect();
+                        lookup(&defaults, &full).is_none() // neither a listed key nor a sub-table
+                    })
+                    .map(|(k, v)| (k.clone(), v.clone()))
+                    .collect()
+            })
             .unwrap_or_default();
         for key in keys {
             let full: Vec<&str> = path.iter().copied().chain([key.as_str()]).collect();
@@ -136,7 +153,7 @@ pub fn sections(paper: &Path) -> Result<Vec<Section>> {
             let paper_value = lookup(&paper_values, &full).map(|v| format!("`{v}`")).unwrap_or_default();
             rows.push(Row {
                 ty: type_name(root, &prop),
-                default: "none".into(),
+                default: OPTIONAL.into(),
                 paper: paper_value,
                 description: description(&prop).unwrap_or_default(),
                 key,

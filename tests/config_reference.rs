@@ -37,7 +37,8 @@ fn every_key_has_a_type_a_default_and_a_description() {
 fn the_reference_lists_exactly_the_keys_of_a_resolved_preset() {
     let (cfg, env) = load_config(Path::new("configs/cpu.toml")).unwrap();
     let resolved = leaf_keys(&resolved_table(&cfg, &env).unwrap());
-    let listed: BTreeSet<String> = sections(Path::new(PAPER)).unwrap().iter().flat_map(|s| s.dotted_keys()).collect();
+    let all = sections(Path::new(PAPER)).unwrap();
+    let listed: BTreeSet<String> = all.iter().flat_map(|s| s.resolved_keys()).collect();
     let unlisted: Vec<_> = resolved.difference(&listed).collect();
     assert!(unlisted.is_empty(), "keys configs/cpu.toml resolves to that the reference leaves out: {unlisted:?}");
     let invented: Vec<_> = listed.difference(&resolved).collect();
@@ -46,6 +47,9 @@ fn the_reference_lists_exactly_the_keys_of_a_resolved_preset() {
     for key in ["run.num_envs", "env.integrator", "env.rewards.sigma_yaw", "env.sim2sim.estimator.q_foot"] {
         assert!(listed.contains(key), "{key} missing from the reference");
     }
+    // Optional keys (no value unless a config sets one) are listed too.
+    let optional: Vec<String> = all.iter().flat_map(|s| s.dotted_keys()).filter(|k| !listed.contains(k)).collect();
+    assert_eq!(optional, ["env.solver_iterations", "env.solver_tolerance"]);
 }
 
 #[test]
