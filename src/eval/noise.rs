@@ -67,7 +67,7 @@ pub fn run(
     seconds: f64,
     interval_s: f64,
 ) -> Result<Vec<NoiseRow>> {
-    let cfg = settings.env_config(&runner)?;
+    let cfg = settings.env_config(runner)?;
     let every = ((interval_s / cfg.policy_dt()).round() as usize).max(1);
     let sigma: Vec<(f64, f64)> = LEVELS.iter().flat_map(|&l| std::iter::repeat_n(l, runs)).collect();
     let rngs = (0..LEVELS.len()).flat_map(|l| (0..runs).map(move |r| stream(settings.seed, l, r))).collect();

@@ -46,7 +46,7 @@ pub fn run(
     window_s: f64,
     command: [f64; 3],
 ) -> Result<PushGrid> {
-    let cfg = settings.env_config(&runner)?;
+    let cfg = settings.env_config(runner)?;
     let ax = axis(range, step)?;
     let forces = cells(&ax);
     let label = format!("push grid {} × {} ({})", ax.len(), ax.len(), runner.name);

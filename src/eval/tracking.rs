@@ -190,7 +190,7 @@ pub fn run(
     starts: usize,
 ) -> Result<Vec<TrackingRow>> {
     anyhow::ensure!(starts >= 1, "tracking needs at least one start per command (--tracking-starts ≥ 1)");
-    let mut cfg = settings.env_config(&runner)?;
+    let mut cfg = settings.env_config(runner)?;
     cfg.termination.enabled = false; // the robot stays on the floor after a fall and the window goes on
     let k = COMMANDS.len();
     let commands: Vec<[f64; 3]> = (0..starts * k).map(|i| COMMANDS[i % k].2).collect();
