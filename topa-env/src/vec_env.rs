@@ -378,19 +378,9 @@ pub fn robot_batch_from(
     threads: usize,
 ) -> Result<BatchEnv<RobotEnv>> {
     cfg.validate()?;
-    // Apply the timestep and integrator once, so the envs share one model until randomisation copies it.
+    // Configure the model once, so the envs share it until randomisation copies it.
     let mut model = model;
-    if let Some(i) = cfg.integrator() {
-        Arc::make_mut(&mut model).set_integrator(i);
-    }
-    if let Some(n) = cfg.solver_iterations {
-        Arc::make_mut(&mut model).set_solver_iterations(n);
-    }
-    if let Some(t) = cfg.solver_tolerance {
-        Arc::make_mut(&mut model).set_solver_tolerance(t);
-    }
-    Arc::make_mut(&mut model).set_timestep(cfg.timestep)?;
-    Arc::make_mut(&mut model).set_sensors_enabled(cfg.needs_sensors());
+    crate::env::configure_model(&mut model, cfg)?;
     let cfg = Arc::new(cfg.clone());
     let idx = Arc::new(RobotIndices::resolve(&model, spec)?);
     let envs = (0..n)

@@ -21,6 +21,32 @@ use crate::state::{self, quat_of, RobotState};
 use crate::symmetry::{self, Symmetry};
 use crate::task::{StepOutcome, Task};
 
+/// Puts `cfg`'s simulation settings (timestep, integrator, solver overrides, sensors) on `model`, copying it only
+/// when one differs: envs built from one configured model share it until randomisation copies it.
+pub(crate) fn configure_model(model: &mut Arc<Model>, cfg: &EnvConfig) -> Result<()> {
+    let integrator = cfg.integrator();
+    if model.timestep() != cfg.timestep
+        || integrator.is_some_and(|i| i != model.integrator())
+        || model.sensors_enabled() != cfg.needs_sensors()
+        || cfg.solver_iterations.is_some_and(|n| n != model.solver_iterations())
+        || cfg.solver_tolerance.is_some_and(|t| t != model.solver_tolerance())
+    {
+        let m = Arc::make_mut(model);
+        m.set_timestep(cfg.timestep)?;
+        if let Some(i) = integrator {
+            m.set_integrator(i);
+        }
+        m.set_sensors_enabled(cfg.needs_sensors());
+        if let Some(n) = cfg.solver_iterations {
+            m.set_solver_iterations(n);
+        }
+        if let Some(t) = cfg.solver_tolerance {
+            m.set_solver_tolerance(t);
+        }
+    }
+    Ok(())
+}
+
 /// Model parameters before randomisation, restored at every reset.
 #[derive(Debug)]
 struct Nominal {
@@ -83,26 +109,7 @@ impl RobotEnv {
         seed: u64,
         index: u64,
     ) -> Result<Self> {
-        let integrator = cfg.integrator();
-        if model.timestep() != cfg.timestep
-            || integrator.is_some_and(|i| i != model.integrator())
-            || model.sensors_enabled() != cfg.needs_sensors()
-            || cfg.solver_iterations.is_some_and(|n| n != model.solver_iterations())
-            || cfg.solver_tolerance.is_some_and(|t| t != model.solver_tolerance())
-        {
-            let m = Arc::make_mut(&mut model);
-            m.set_timestep(cfg.timestep)?;
-            if let Some(i) = integrator {
-                m.set_integrator(i);
-            }
-            m.set_sensors_enabled(cfg.needs_sensors());
-            if let Some(n) = cfg.solver_iterations {
-                m.set_solver_iterations(n);
-            }
-            if let Some(t) = cfg.solver_tolerance {
-                m.set_solver_tolerance(t);
-            }
-        }
+        configure_model(&mut model, &cfg)?;
         let nominal = Arc::new(Nominal {
             body_mass: model.body_mass().to_vec(),
             body_inertia: model.body_inertia().to_vec(),
