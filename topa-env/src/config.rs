@@ -6,6 +6,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{EnvError, Result};
+pub use crate::integrator::IntegratorChoice;
 use crate::topa::ModelKind;
 
 /// The task's settings: the robot, its simulation, commands, rewards, noise, randomisation, pushes, termination,
@@ -55,54 +56,6 @@ pub struct EnvConfig {
     pub sim2sim: crate::sim2sim::Sim2SimConfig,
     /// How far the cyclic adversary may perturb (its channels' bounds).
     pub adversary: AdversaryBounds,
-}
-
-/// Which integrator the env runs: the MJCF's own, or an override.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
-#[serde(rename_all = "lowercase")]
-pub enum IntegratorChoice {
-    #[default]
-    Model,
-    Euler,
-    Rk4,
-    Implicit,
-}
-
-impl IntegratorChoice {
-    pub fn name(self) -> &'static str {
-        match self {
-            IntegratorChoice::Model => "model",
-            IntegratorChoice::Euler => "euler",
-            IntegratorChoice::Rk4 => "rk4",
-            IntegratorChoice::Implicit => "implicit",
-        }
-    }
-    /// The override, or None to keep the model's.
-    pub fn resolve(self) -> Option<mujoco_sys::Integrator> {
-        use mujoco_sys::Integrator;
-        match self {
-            IntegratorChoice::Model => None,
-            IntegratorChoice::Euler => Some(Integrator::Euler),
-            IntegratorChoice::Rk4 => Some(Integrator::Rk4),
-            IntegratorChoice::Implicit => Some(Integrator::Implicit),
-        }
-    }
-}
-
-impl std::str::FromStr for IntegratorChoice {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        [IntegratorChoice::Model, IntegratorChoice::Euler, IntegratorChoice::Rk4, IntegratorChoice::Implicit]
-            .into_iter()
-            .find(|i| i.name() == s)
-            .ok_or_else(|| format!("integrator '{s}' is unknown: use model, euler, rk4 or implicit"))
-    }
-}
-
-impl std::fmt::Display for IntegratorChoice {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
 }
 
 /// What is trained.

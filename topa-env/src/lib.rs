@@ -6,6 +6,7 @@ pub mod config;
 pub mod env;
 pub mod error;
 pub mod indices;
+pub mod integrator;
 pub mod linkage;
 pub mod observation;
 pub mod perturb;
