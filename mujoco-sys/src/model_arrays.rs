@@ -88,13 +88,10 @@ read_arrays! {
     dof_bodyid: i32, nv;
     dof_jntid: i32, nv;
     geom_type: i32, ngeom;
-    geom_contype: i32, ngeom;
-    geom_conaffinity: i32, ngeom;
     geom_bodyid: i32, ngeom;
     geom_size: [f64; 3], ngeom;
     geom_pos: [f64; 3], ngeom;
     geom_quat: [f64; 4], ngeom;
-    geom_rgba: [f32; 4], ngeom;
     site_bodyid: i32, nsite;
     site_pos: [f64; 3], nsite;
     actuator_trntype: i32, nu;
@@ -120,6 +117,11 @@ write_arrays! {
     body_mass / body_mass_mut: f64, nbody;
     /// Principal moments of inertia (kg·m²) in the body's inertial frame.
     body_inertia / body_inertia_mut: [f64; 3], nbody;
+    /// Contact filter bits: a pair collides when (contype_a & conaffinity_b) | (contype_b & conaffinity_a) ≠ 0.
+    geom_contype / geom_contype_mut: i32, ngeom;
+    geom_conaffinity / geom_conaffinity_mut: i32, ngeom;
+    /// Colour (alpha 0 hides a geom).
+    geom_rgba / geom_rgba_mut: [f32; 4], ngeom;
     /// Sliding, torsional, rolling friction per geom.
     geom_friction / geom_friction_mut: [f64; 3], ngeom;
     /// Rotor inertia reflected to the joint (kg·m²).

@@ -3,6 +3,7 @@
 
 pub mod assets;
 pub mod config;
+pub mod course;
 pub mod env;
 pub mod error;
 pub mod indices;
@@ -20,6 +21,7 @@ pub mod task;
 pub mod tasks;
 pub mod topa;
 pub mod vec_env;
+pub mod world;
 
 pub use config::{EnvConfig, IntegratorChoice, TaskKind};
 pub use env::RobotEnv;

@@ -89,14 +89,16 @@ pub fn read_into(d: &Data, idx: &RobotIndices, s: &mut RobotState) {
     }
 }
 
-/// Normal force of the floor on each foot (N), and whether any other robot body touches the floor.
+/// Normal force of the ground (anything fixed to the world: the floor, a course's walls) on each foot (N), and
+/// whether any other robot body touches the ground.
 pub fn contact_forces(d: &Data, idx: &RobotIndices) -> ([f64; 2], bool) {
     let (mut force, mut body_contact) = ([0.0; 2], false);
+    let m = d.model();
     for (i, con) in d.contacts().iter().enumerate() {
         let (g1, g2) = (con.geom1 as usize, con.geom2 as usize);
-        let other = if g1 == idx.floor_geom {
+        let other = if crate::world::is_ground(m, g1) {
             g2
-        } else if g2 == idx.floor_geom {
+        } else if crate::world::is_ground(m, g2) {
             g1
         } else {
             continue;

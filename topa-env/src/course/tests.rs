@@ -1,0 +1,60 @@
+use super::*;
+
+const INDOOR: &str = include_str!("../../../assets/courses/indoor.toml");
+
+fn with(extra: &str) -> Result<Course, String> {
+    Course::parse(&format!("{INDOOR}\n{extra}"))
+}
+
+#[test]
+fn the_indoor_course_is_about_100_m_with_its_elements() {
+    let c = Course::parse(INDOOR).unwrap();
+    assert!((c.path.length() - 100.0).abs() < 1e-9, "{}", c.path.length());
+    // Two corridors of 2 sides (mitred: 2 walls a side around the 90° corner, 3 around the U-turn's two corners)
+    // and 2 door frames of 2 posts.
+    assert_eq!(c.walls.len(), 2 * 2 + 2 * 3 + 2 * 2);
+    assert_eq!(c.material_at([5.0, 0.0]), Some("tiles"));
+    assert_eq!(c.material_at([20.0, 8.0]), Some("wood"));
+    assert_eq!(c.material_at([100.0, 100.0]), None);
+    // In a corridor the walls are half_width − thickness/2 from the path.
+    assert!((c.wall_clearance([30.0, 15.0]) - 0.36).abs() < 1e-9, "{}", c.wall_clearance([30.0, 15.0]));
+}
+
+#[test]
+fn a_path_that_leaves_its_floor_is_named_with_where() {
+    let text = INDOOR.replace("[30.0, 40.0],", "[30.0, 45.0],");
+    let err = Course::parse(&text).unwrap_err();
+    assert!(err.contains("leaves its floor") && err.contains("(30.00, 41.5"), "{err}");
+}
+
+#[test]
+fn overlapping_walls_and_walls_on_the_path_are_named() {
+    let err = with("[[wall]]\nfrom = [5.0, 1.0]\nto = [5.0, 3.0]\n[[wall]]\nfrom = [4.0, 2.0]\nto = [6.0, 2.0]").unwrap_err();
+    assert!(err.contains("wall 0") && err.contains("wall 1") && err.contains("overlap"), "{err}");
+    let err = with("[[wall]]\nfrom = [5.0, -1.0]\nto = [5.0, 1.0]").unwrap_err();
+    assert!(err.contains("wall 0") && err.contains("from the path"), "{err}");
+    // A door frame inside a corridor collides with its walls.
+    let err = with("[[door]]\nat_m = 45.0\nclear_width = 0.8").unwrap_err();
+    assert!(err.contains("overlap"), "{err}");
+}
+
+#[test]
+fn wrong_keys_and_values_are_named() {
+    assert!(with("[[threshold]]\nat_m = 5.0\nheight = 0.2").unwrap_err().contains("not a threshold"));
+    assert!(with("[[threshold]]\nat_m = 500.0\nheight = 0.01").unwrap_err().contains("100.0 m long"));
+    assert!(with("[[floor]]\nmaterial = \"ice\"\nmin = [0, 0]\nmax = [1, 1]").unwrap_err().contains("no material 'ice'"));
+    let err = with("[[threshold]]\nat_m = 5.0\nheigth = 0.01").unwrap_err();
+    assert!(err.contains("heigth"), "{err}");
+    let err = Course::load(std::path::Path::new("no/such/course.toml")).unwrap_err();
+    assert!(err.contains("no/such/course.toml") && err.contains("assets/courses"), "{err}");
+}
+
+#[test]
+fn the_course_compiles_with_the_robot_and_its_floor_carries_the_material_friction() {
+    let spec = crate::spec::RobotSpec::load(&crate::assets::robot_path("assets/robots/topa_closed.toml")).unwrap().0;
+    let c = Course::parse(INDOOR).unwrap();
+    let m = crate::world::compile(&spec, &c.world()).unwrap();
+    let g = m.id(mujoco_sys::ObjType::Geom, "course_floor0").unwrap();
+    assert_eq!(m.geom_friction()[g][0], 0.45);
+    assert!(m.names(mujoco_sys::ObjType::Geom).iter().filter(|n| n.starts_with(mjcf::WALL_PREFIX)).count() == c.walls.len());
+}

@@ -1,0 +1,92 @@
+//! A robot in a world of our making (a course, terrain): the robot's own MJCF with the world's geoms spliced into
+//! its `<worldbody>`, compiled in memory with includes resolved beside the robot's file — no hand-edited copy of
+//! the robot. The robot's own floor is switched off (no contacts, not drawn): the world brings its ground.
+
+use std::sync::Arc;
+
+use mujoco_sys::{Model, ObjType};
+
+use crate::error::{EnvError, Result};
+use crate::spec::RobotSpec;
+
+/// MJCF fragments a world adds: `<asset>` children (materials, heightfields) and `<worldbody>` children.
+#[derive(Debug, Clone, Default)]
+pub struct WorldXml {
+    pub assets: String,
+    pub worldbody: String,
+}
+
+/// The robot's MJCF text with `world` spliced in (for inspection or a file a user opens in MuJoCo's viewer).
+pub fn mjcf_text(spec: &RobotSpec, world: &WorldXml) -> Result<String> {
+    let text = std::fs::read_to_string(&spec.mjcf)
+        .map_err(|e| EnvError::Config(format!("robot MJCF {}: {e}", spec.mjcf.display())))?;
+    let Some(at) = text.rfind("</worldbody>") else {
+        return Err(EnvError::Config(format!(
+            "robot MJCF {} has no </worldbody> to add a world to (the robot's bodies must be in the main file)",
+            spec.mjcf.display()
+        )));
+    };
+    let end = at + "</worldbody>".len();
+    Ok(format!(
+        "{}<!-- world -->\n{}\n{}\n<asset>\n{}\n</asset>{}",
+        &text[..at],
+        world.worldbody,
+        &text[at..end],
+        world.assets,
+        &text[end..]
+    ))
+}
+
+/// Compiles the robot in `world`, its own floor switched off.
+pub fn compile(spec: &RobotSpec, world: &WorldXml) -> Result<Arc<Model>> {
+    let xml = mjcf_text(spec, world)?;
+    let dir = spec.mjcf.parent().unwrap_or(std::path::Path::new("."));
+    let mut model = Model::from_xml_string(&xml, dir)?;
+    let floor = model.id(ObjType::Geom, &spec.floor_geom)?;
+    model.geom_contype_mut()[floor] = 0;
+    model.geom_conaffinity_mut()[floor] = 0;
+    model.geom_rgba_mut()[floor][3] = 0.0;
+    Ok(Arc::new(model))
+}
+
+/// Whether geom `g` is part of the ground: anything fixed to the world body (the floor, a course's patches, walls
+/// and thresholds, terrain).
+pub fn is_ground(model: &Model, g: usize) -> bool {
+    model.geom_bodyid()[g] == 0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec() -> RobotSpec {
+        RobotSpec::load(&crate::assets::robot_path("assets/robots/topa_closed.toml")).unwrap().0
+    }
+
+    #[test]
+    fn a_world_replaces_the_robots_floor_and_keeps_the_robot() {
+        let spec = spec();
+        let world = WorldXml {
+            assets: r#"<material name="w_mat" rgba="0.5 0.5 0.5 1"/>"#.into(),
+            worldbody: r#"<geom name="w_floor" type="box" size="2 2 0.05" pos="0 0 -0.05" material="w_mat"
+                 contype="0" conaffinity="1" priority="1" friction="0.4 0.005 0.0001"/>"#
+                .into(),
+        };
+        let m = compile(&spec, &world).unwrap();
+        let (_, plain) = RobotSpec::load(&spec.path).unwrap();
+        assert_eq!(m.nq(), plain.nq());
+        assert_eq!(m.ngeom(), plain.ngeom() + 1);
+        let floor = m.id(ObjType::Geom, &spec.floor_geom).unwrap();
+        assert_eq!(m.geom_conaffinity()[floor], 0);
+        let box_ = m.id(ObjType::Geom, "w_floor").unwrap();
+        assert!(is_ground(&m, box_) && is_ground(&m, floor));
+        assert_eq!(m.geom_friction()[box_][0], 0.4);
+    }
+
+    #[test]
+    fn a_broken_world_is_named_as_a_compile_error() {
+        let world = WorldXml { worldbody: r#"<geom type="box" size="1 1"#.into(), ..Default::default() };
+        let err = compile(&spec(), &world).err().unwrap().to_string();
+        assert!(err.contains("could not load"), "{err}");
+    }
+}
