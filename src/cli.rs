@@ -72,6 +72,37 @@ pub enum Cmd {
         /// e.g. one per policy, run as each training ended) into one report with the groups' mean ± sd.
         #[arg(long, num_args = 2.., conflicts_with_all = ["o", "c", "ca", "full", "push_range", "push_step", "tracking_starts"])]
         merge: Vec<PathBuf>,
+        /// Add the real-world test of these policies (a field.json written by `topa field`) to the report.
+        #[arg(long)]
+        field: Option<PathBuf>,
+        #[command(flatten)]
+        common: eval_cmd::Common,
+    },
+    /// The paper's real-world test for O, C and C+A: each policy over the course at several top speeds and on a
+    /// long operator-driven run, in each sim2sim mode; the groups' numbers with the paper's and its three claims.
+    Field {
+        /// Policies of each group (files or folders), as for `topa ablate`.
+        #[arg(long, num_args = 1..)]
+        o: Vec<PathBuf>,
+        #[arg(long, num_args = 1..)]
+        c: Vec<PathBuf>,
+        #[arg(long, num_args = 1..)]
+        ca: Vec<PathBuf>,
+        /// The course file.
+        #[arg(long, default_value = "assets/courses/indoor.toml")]
+        course: PathBuf,
+        /// Top speeds of the operator on the course, m/s.
+        #[arg(long, value_delimiter = ',', default_value = "0.3,0.5,0.7")]
+        speeds: Vec<f64>,
+        /// Simulated minutes of the endurance run.
+        #[arg(long, default_value_t = 40.0)]
+        minutes: f64,
+        /// Sim2sim modes to run in (ideal, realistic, or files).
+        #[arg(long, value_delimiter = ',', default_value = "ideal,realistic")]
+        modes: Vec<eval_cmd::Sim2SimArg>,
+        /// Instead of running policies: join field.json files of earlier runs.
+        #[arg(long, num_args = 2.., conflicts_with_all = ["o", "c", "ca"])]
+        merge: Vec<PathBuf>,
         #[command(flatten)]
         common: eval_cmd::Common,
     },

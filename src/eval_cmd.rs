@@ -10,7 +10,7 @@ use topa_env::IntegratorChoice;
 use crate::eval::ablate::{self, Extent};
 use crate::eval::results::Group;
 use crate::eval::settings::{EvalSettings, Sim2SimMode};
-use crate::eval::{heatmaps, noise, push, report, tracking};
+use crate::eval::{course, course_map, endurance, field, heatmaps, noise, push, report, tracking};
 use topa_env::policy_runner::PolicyRunner;
 
 #[derive(Args, Clone)]
@@ -130,6 +130,33 @@ pub enum EvalCmd {
         #[arg(long, default_value_t = 0.5)]
         interval: f64,
     },
+    /// Drive the policy over a course (the paper's 100 m indoor test) at several top speeds: time to the goal,
+    /// interventions, joint-limit hits, distance off the path; a map of the runs (and a chase-camera video).
+    Course {
+        #[arg(long)]
+        policy: PathBuf,
+        /// The course file.
+        #[arg(long, default_value = "assets/courses/indoor.toml")]
+        course: PathBuf,
+        /// Top speeds of the operator, m/s (within the policy's forward command range).
+        #[arg(long, value_delimiter = ',', default_value = "0.3,0.5,0.7")]
+        speeds: Vec<f64>,
+        /// Also render the run at the highest speed from a camera behind the robot.
+        #[command(flatten)]
+        video: VideoArgs,
+    },
+    /// A long run under an operator-like joystick (speed changes, turns, stops, hand noise, occasional pushes):
+    /// interventions and their causes.
+    Endurance {
+        #[arg(long)]
+        policy: PathBuf,
+        /// Simulated minutes per run.
+        #[arg(long, default_value_t = 40.0)]
+        minutes: f64,
+        /// Runs side by side (each with its own operator).
+        #[arg(long, default_value_t = 1)]
+        runs: usize,
+    },
 }
 
 fn print_json<T: serde::Serialize>(v: &T) -> Result<()> {
@@ -196,8 +223,68 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             }
             println!("{}", report::noise_markdown(&[("ours", &rows)], Some(&paper)));
         }
+        EvalCmd::Course { policy, course, speeds, video } => {
+            let map = topa_env::course::Course::load(&topa_env::assets::robot_path(&course.to_string_lossy()))
+                .map_err(anyhow::Error::msg)?;
+            let mut r = PolicyRunner::load(&policy, "policy")?;
+            let result = course::run(&mut r, &map, &s, &speeds, None)?;
+            report::write_json(&c.out, "course.json", &result)?;
+            let png = c.out.join("course_map.png");
+            let title = format!("{} on {} ({} sim2sim)", policy.display(), map.name, c.sim2sim);
+            course_map::course_map(&map, &result, &title, &png)?;
+            if let Some(file) = &video.video {
+                let top = speeds.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+                let out = course_video(&mut r, &map, &s, top, file, &video)?;
+                eprintln!("video of the {top} m/s run: {}", out.display());
+            }
+            if c.json {
+                return print_json(&result);
+            }
+            println!("{}", course::markdown(&result));
+            println!("map: {}", png.display());
+        }
+        EvalCmd::Endurance { policy, minutes, runs } => {
+            let mut r = PolicyRunner::load(&policy, "policy")?;
+            let result = endurance::run(&mut r, &s, minutes, runs, &endurance::Operator::default())?;
+            report::write_json(&c.out, "endurance.json", &result)?;
+            if c.json {
+                return print_json(&result);
+            }
+            println!("{}", endurance::markdown(&result));
+        }
     }
     Ok(())
+}
+
+/// The course at one top speed again, rendered from behind the robot.
+fn course_video(
+    r: &mut PolicyRunner,
+    map: &topa_env::course::Course,
+    s: &EvalSettings,
+    speed: f64,
+    file: &std::path::Path,
+    video: &VideoArgs,
+) -> Result<PathBuf> {
+    let o = video.options()?;
+    let mut rec: Option<crate::video::VideoRecorder> = None;
+    let mut watch = |t: f64, env: &mut topa_env::RobotEnv| -> Result<()> {
+        if rec.is_none() {
+            rec = Some(crate::video::VideoRecorder::create(
+                file,
+                env,
+                o.video_size,
+                o.fps,
+                o.quality.unwrap_or(mujoco_sys::render::Quality::Fast),
+            )?);
+        }
+        let v = rec.as_mut().unwrap();
+        let torso = env.indices().torso_body;
+        v.follow(torso, 2.2, env.robot_state().yaw.to_degrees(), -25.0);
+        let text = crate::video::overlay(env, t);
+        v.advance(t, env, &text)
+    };
+    course::run(r, map, s, &[speed], Some(&mut watch))?;
+    rec.ok_or_else(|| anyhow::anyhow!("the course run rendered no frame"))?.finish()
 }
 
 /// Policy files of one group: files as given, folders expanded to their `*.json` policies in name order.
@@ -221,20 +308,81 @@ pub fn policy_files(group: &str, paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     Ok(out)
 }
 
-pub fn run_ablate(o: Vec<PathBuf>, cp: Vec<PathBuf>, ca: Vec<PathBuf>, extent: Extent, c: Common) -> Result<()> {
+/// The (group, file) list of `--o`, `--c`, `--ca`.
+fn grouped(o: Vec<PathBuf>, cp: Vec<PathBuf>, ca: Vec<PathBuf>) -> Result<Vec<(Group, PathBuf)>> {
     let mut policies: Vec<(Group, PathBuf)> = Vec::new();
     for (group, flag, paths) in [(Group::O, "o", o), (Group::C, "c", cp), (Group::CA, "ca", ca)] {
         policies.extend(policy_files(flag, &paths)?.into_iter().map(|p| (group, p)));
     }
+    Ok(policies)
+}
+
+pub fn run_ablate(
+    o: Vec<PathBuf>,
+    cp: Vec<PathBuf>,
+    ca: Vec<PathBuf>,
+    extent: Extent,
+    field: Option<&std::path::Path>,
+    c: Common,
+) -> Result<()> {
+    let policies = grouped(o, cp, ca)?;
     extent.check()?;
-    let a = ablate::run(&policies, &c.settings()?, &extent)?;
+    let field = field.map(field::load).transpose()?;
+    let mut a = ablate::run(&policies, &c.settings()?, &extent)?;
+    a.field = field;
     report_ablation(&a, &c)
 }
 
 /// `topa ablate --merge`: the report of several earlier ablations joined.
-pub fn merge_ablations(files: &[PathBuf], c: Common) -> Result<()> {
-    let a = ablate::merge(files)?;
+pub fn merge_ablations(files: &[PathBuf], field: Option<&std::path::Path>, c: Common) -> Result<()> {
+    let mut a = ablate::merge(files)?;
+    if let Some(f) = field {
+        a.field = Some(field::load(f)?);
+    }
     report_ablation(&a, &c)
+}
+
+/// A sim2sim mode in a comma-separated list.
+#[derive(Clone, Debug)]
+pub struct Sim2SimArg(pub Sim2SimMode);
+
+impl std::str::FromStr for Sim2SimArg {
+    type Err = std::convert::Infallible;
+    fn from_str(s: &str) -> std::result::Result<Self, Self::Err> {
+        Ok(Sim2SimArg(s.parse()?))
+    }
+}
+
+/// `topa field`: the real-world test of each policy, written to field.{md,json}.
+pub fn run_field(
+    o: Vec<PathBuf>,
+    cp: Vec<PathBuf>,
+    ca: Vec<PathBuf>,
+    extent: field::FieldExtent,
+    c: Common,
+) -> Result<()> {
+    let policies = grouped(o, cp, ca)?;
+    for v in &extent.speeds {
+        anyhow::ensure!(*v > 0.0, "--speeds: {v} m/s is not a forward speed");
+    }
+    let f = field::run(&policies, &c.settings()?, &extent)?;
+    report_field(&f, &c)
+}
+
+/// `topa field --merge`.
+pub fn merge_field(files: &[PathBuf], c: Common) -> Result<()> {
+    report_field(&field::merge(files)?, &c)
+}
+
+fn report_field(f: &field::Field, c: &Common) -> Result<()> {
+    std::fs::create_dir_all(&c.out)?;
+    let md = field::write(f, &c.out)?;
+    if c.json {
+        return print_json(f);
+    }
+    println!("{md}");
+    println!("results: {} (field.md, field.json)", c.out.display());
+    Ok(())
 }
 
 fn report_ablation(a: &ablate::Ablation, c: &Common) -> Result<()> {

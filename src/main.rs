@@ -23,14 +23,28 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             eval_cmd::run_eval(cmd, common)
         }
-        Cmd::Ablate { merge, common, .. } if !merge.is_empty() => eval_cmd::merge_ablations(&merge, common),
-        Cmd::Ablate { o, c, ca, full, push_range, push_step, tracking_starts, common, .. } => {
+        Cmd::Ablate { merge, field, common, .. } if !merge.is_empty() => {
+            eval_cmd::merge_ablations(&merge, field.as_deref(), common)
+        }
+        Cmd::Ablate { o, c, ca, full, push_range, push_step, tracking_starts, field, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let mut extent = if full { Extent::full() } else { Extent::quick() };
             extent.push_range_n = push_range.unwrap_or(extent.push_range_n);
             extent.push_step_n = push_step.unwrap_or(extent.push_step_n);
             extent.tracking_starts = tracking_starts.unwrap_or(extent.tracking_starts);
-            eval_cmd::run_ablate(o, c, ca, extent, common)
+            eval_cmd::run_ablate(o, c, ca, extent, field.as_deref(), common)
+        }
+        Cmd::Field { merge, common, .. } if !merge.is_empty() => eval_cmd::merge_field(&merge, common),
+        Cmd::Field { o, c, ca, course, speeds, minutes, modes, common, .. } => {
+            trainer::nn::init_threads(resolve_threads(common.threads))?;
+            let extent = topa::eval::field::FieldExtent {
+                course,
+                speeds,
+                endurance_minutes: minutes,
+                modes: modes.into_iter().map(|m| m.0).collect(),
+                operator: Default::default(),
+            };
+            eval_cmd::run_field(o, c, ca, extent, common)
         }
         Cmd::Plot { runs, group, out } => {
             if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {

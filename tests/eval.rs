@@ -405,3 +405,69 @@ fn every_shipped_policy_loads_with_its_own_weights() {
         assert!(n >= 2, "assets/policies/{group}/ holds the group's seeds ({n} found)");
     }
 }
+
+/// A 4 m course along +y from (2, 3): a robot must be put at the start facing along the path to make progress.
+const SHORT_COURSE: &str = r#"
+name = "short"
+path = [[2.0, 3.0], [2.0, 7.0]]
+[materials.tiles]
+friction = 0.45
+[[floor]]
+material = "tiles"
+min = [0.0, 1.0]
+max = [4.0, 9.0]
+[[threshold]]
+at_m = 2.0
+height = 0.01
+"#;
+
+#[test]
+fn a_walking_policy_drives_a_course_and_a_standing_one_is_helped_until_time_runs_out() {
+    use topa::eval::course;
+    let map = topa_env::course::Course::parse(SHORT_COURSE).unwrap();
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/CA/seed1.json"));
+    let mut r = PolicyRunner::load(path, "CA").unwrap();
+    let res = course::run(&mut r, &map, &EvalSettings::default(), &[0.5], None).unwrap();
+    let run = &res.runs[0];
+    assert!(run.finished && run.clean(), "{run:?}");
+    // 4 m less the goal radius at up to 0.5 m/s, plus starting off.
+    assert!(run.time_s > 7.0 && run.time_s < 14.0, "{run:?}");
+    assert!(run.max_off_path_m < 0.3 && run.progress_m > 3.4, "{run:?}");
+    assert_eq!(res.best_clean_time(), Some(run.time_s));
+
+    let dir = tempdir("course");
+    let stand = constant_policy(&dir, "stand", ModelKind::Closed, hold_action());
+    let mut r = PolicyRunner::load(&stand, "stand").unwrap();
+    let res = course::run(&mut r, &map, &EvalSettings::default(), &[0.5], None).unwrap();
+    let run = &res.runs[0];
+    let limit = 4.0 * 4.0 / 0.5 + 120.0;
+    assert!(!run.finished && (run.time_s - limit).abs() < 0.05, "{run:?}");
+    assert_eq!(run.stuck, (limit / course::STUCK_S).floor() as usize - usize::from(limit % course::STUCK_S < 0.05));
+    assert_eq!((run.falls, run.wall_contacts), (0, 0), "{run:?}");
+    assert!(res.best_clean_time().is_none());
+    // A speed the policy was never commanded is refused before anything runs.
+    let err = course::run(&mut r, &map, &EvalSettings::default(), &[0.9], None).unwrap_err().to_string();
+    assert!(err.contains("0.9") && err.contains("command range"), "{err}");
+}
+
+#[test]
+fn an_endurance_run_counts_each_fall_with_its_cause() {
+    use topa::eval::endurance::{self, Operator};
+    let dir = tempdir("endurance");
+    let crouch = constant_policy(&dir, "crouch", ModelKind::Closed, crouch_action());
+    let mut r = PolicyRunner::load(&crouch, "crouch").unwrap();
+    let runs = endurance::run(&mut r, &EvalSettings::default(), 0.5, 1, &Operator::default()).unwrap();
+    let e = &runs[0];
+    assert!(e.interventions >= 3, "a folding robot falls again after every restart: {e:?}");
+    assert_eq!(e.interventions, e.during_push + e.during_turn + e.during_walk + e.during_stand);
+    assert!(e.minutes_to_first < 0.1, "{e:?}");
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/CA/seed1.json"));
+    let mut r = PolicyRunner::load(path, "CA").unwrap();
+    let op = Operator { push_every_s: [10.0, 12.0], ..Operator::default() };
+    let runs = endurance::run(&mut r, &EvalSettings::default(), 1.0, 2, &op).unwrap();
+    for e in &runs {
+        assert!((4..=5).contains(&e.pushes), "a push every 10–12 s in a minute: {e:?}");
+        assert!(e.distance_m > 3.0, "the operator drives it around: {e:?}");
+    }
+    assert_ne!(runs[0], runs[1], "each run has its own operator");
+}

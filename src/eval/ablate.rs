@@ -95,6 +95,9 @@ pub struct Ablation {
     pub settings: EvalSettings,
     pub extent: Extent,
     pub results: Vec<PolicyResults>,
+    /// The real-world test of the same policies (`topa field`), when attached with `--field`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field: Option<super::field::Field>,
 }
 
 /// Runs every experiment for each (group, policy file).
@@ -122,7 +125,7 @@ pub fn run(policies: &[(Group, PathBuf)], settings: &EvalSettings, extent: &Exte
             noise,
         });
     }
-    Ok(Ablation { settings: settings.clone(), extent: extent.clone(), results })
+    Ok(Ablation { settings: settings.clone(), extent: extent.clone(), results, field: None })
 }
 
 /// Joins ablations written by earlier runs (`ablation.json`: one per policy, per machine or per session — each
@@ -174,7 +177,7 @@ pub fn merge(files: &[PathBuf]) -> Result<Ablation> {
         }
     }
     results.sort_by_key(|r| r.name); // the report's order: O, C, CA
-    Ok(Ablation { settings: first.settings.clone(), extent: first.extent.clone(), results })
+    Ok(Ablation { settings: first.settings.clone(), extent: first.extent.clone(), results, field: None })
 }
 
 /// The Markdown report: the groups' headline numbers, tracking, gait, and every policy's own row.
@@ -209,7 +212,20 @@ pub fn markdown(a: &Ablation) -> Result<String> {
         groups::gait_markdown(&g),
         groups::intervals_markdown(&g, a.extent.resolution().push),
         groups::per_policy_markdown(&a.results),
-    ))
+    )
+    .replace("## Each policy", &format!("{}## Each policy", field_section(a)?)))
+}
+
+/// The real-world test's section, when a field report is attached.
+fn field_section(a: &Ablation) -> Result<String> {
+    Ok(match &a.field {
+        Some(f) => format!(
+            "## The paper's real-world test, in simulation\n\n{}\n{}\n",
+            super::field::markdown(f, &report::paper()?),
+            super::field::claims_markdown(f)
+        ),
+        None => String::new(),
+    })
 }
 
 /// One section of the report by name, for the pages that show it (README.md): "headline" or "claims".
@@ -219,7 +235,8 @@ pub fn section(a: &Ablation, kind: &str) -> Result<String> {
     match kind {
         "headline" => Ok(groups::headline_markdown(&g, &paper, a.extent.resolution().push)),
         "claims" => Ok(super::claims::markdown(&super::claims::check(&g, a.extent.resolution()))),
-        _ => anyhow::bail!("no report section {kind:?}: use headline or claims"),
+        "field" => field_section(a),
+        _ => anyhow::bail!("no report section {kind:?}: use headline, claims or field"),
     }
 }
 
@@ -348,7 +365,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let settings = EvalSettings { threads: 1, ..Default::default() };
         let write = |file: &str, extent: Extent, results: Vec<PolicyResults>| {
-            let a = Ablation { settings: settings.clone(), extent, results };
+            let a = Ablation { settings: settings.clone(), extent, results, field: None };
             report::write_json(&dir, file, &a).unwrap();
             dir.join(file)
         };
@@ -357,7 +374,8 @@ mod tests {
         // Thread count may differ: results do not depend on it.
         let mut more = settings.clone();
         more.threads = 2;
-        let c2_ablation = Ablation { settings: more, extent: Extent::full(), results: vec![one("C", "c2.json", 7.0)] };
+        let c2_ablation =
+            Ablation { settings: more, extent: Extent::full(), results: vec![one("C", "c2.json", 7.0)], field: None };
         report::write_json(&dir, "c2.json", &c2_ablation).unwrap();
         let m = merge(&[ca.clone(), c.clone(), dir.join("c2.json")]).unwrap();
         let order: Vec<(&str, &str)> = m.results.iter().map(|r| (r.name.key(), r.policy.to_str().unwrap())).collect();
@@ -388,7 +406,8 @@ mod tests {
         assert!(err(&[c.clone(), quick]).contains("another protocol"));
         let mut other = settings.clone();
         other.seed = 2;
-        let s2 = Ablation { settings: other, extent: Extent::full(), results: vec![one("C", "c4.json", 7.0)] };
+        let s2 =
+            Ablation { settings: other, extent: Extent::full(), results: vec![one("C", "c4.json", 7.0)], field: None };
         report::write_json(&dir, "seed2.json", &s2).unwrap();
         assert!(err(&[c.clone(), dir.join("seed2.json")]).contains("other evaluation settings"));
         assert!(err(&[c.clone(), c.clone()]).contains("c1.json is in more than one file"));

@@ -5,6 +5,11 @@
 
 pub mod ablate;
 pub mod claims;
+pub mod course;
+pub mod course_map;
+pub mod driver;
+pub mod endurance;
+pub mod field;
 pub mod gait;
 pub mod groups;
 pub mod heatmaps;

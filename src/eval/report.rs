@@ -26,6 +26,10 @@ pub struct PaperTables {
     pub tracking: BTreeMap<String, BTreeMap<String, [f64; 5]>>,
     pub push_mean_t_fall: BTreeMap<String, f64>,
     pub noise_success: BTreeMap<String, Vec<f64>>,
+    /// The real robot's course time per group, minutes (O did not finish).
+    pub course_minutes: BTreeMap<String, f64>,
+    /// Minutes C+A ran without an intervention in public demonstrations.
+    pub continuous_minutes_ca: f64,
 }
 
 pub fn paper() -> Result<PaperTables> {
@@ -52,6 +56,12 @@ pub fn paper() -> Result<PaperTables> {
             x.as_array().context("noise row")?.iter().map(|y| y.as_integer().map_or(f64::NAN, |i| i as f64)).collect();
         t.noise_success.insert(p.clone(), vals);
     }
+    let rw = &v["real_world"];
+    for (p, x) in rw["course_minutes"].as_table().context("real_world.course_minutes")? {
+        t.course_minutes.insert(p.clone(), x.as_float().unwrap_or(f64::NAN));
+    }
+    t.continuous_minutes_ca =
+        rw["continuous_operation_min_CA"].as_integer().context("real_world.continuous_operation_min_CA")? as f64;
     Ok(t)
 }
 

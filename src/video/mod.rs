@@ -65,6 +65,11 @@ impl VideoRecorder {
         Ok(())
     }
 
+    /// Points the camera: it follows `body` at `distance` m from `azimuth`° (0 looks along +x) and `elevation`°.
+    pub fn follow(&mut self, body: usize, distance: f64, azimuth: f64, elevation: f64) {
+        self.renderer.track(body, distance, azimuth, elevation);
+    }
+
     pub fn frames(&self) -> usize {
         self.writer.frames()
     }

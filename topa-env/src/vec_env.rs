@@ -96,6 +96,11 @@ impl<T: Task> BatchEnv<T> {
     pub fn tasks(&self) -> &[T] {
         &self.tasks
     }
+    /// Env `i` with its observation row, e.g. to reset it somewhere of the caller's choosing.
+    pub fn env_mut(&mut self, i: usize) -> (&mut T, &mut [f32]) {
+        let d = self.obs_dim;
+        (&mut self.tasks[i], &mut self.obs[i * d..(i + 1) * d])
+    }
     pub fn tasks_mut(&mut self) -> &mut [T] {
         &mut self.tasks
     }

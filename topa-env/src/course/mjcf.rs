@@ -55,11 +55,10 @@ impl Course {
             )
             .unwrap();
         }
-        let bars = self
-            .thresholds
-            .iter()
-            .map(|t| (t.at_m, t.height, t.depth, t.width))
-            .chain(self.doors.iter().filter(|d| d.threshold > 0.0).map(|d| (d.at_m, d.threshold, 0.04, d.clear_width)));
+        let bars =
+            self.thresholds.iter().map(|t| (t.at_m, t.height, t.depth, t.width)).chain(
+                self.doors.iter().filter(|d| d.threshold > 0.0).map(|d| (d.at_m, d.threshold, 0.04, d.clear_width)),
+            );
         for (i, (s, h, depth, width)) in bars.enumerate() {
             let p = self.path.at(s);
             writeln!(

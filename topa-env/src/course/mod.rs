@@ -12,8 +12,8 @@ use std::path::Path as FsPath;
 
 use serde::Deserialize;
 
-pub use path::{Path, PathPoint};
 use path::{dist, point_segment_distance, segment_distance, segments_cross};
+pub use path::{Path, PathPoint};
 
 /// A floor material: the friction of a rubber sole on it, and its colour.
 #[derive(Debug, Clone, Deserialize)]
@@ -253,7 +253,10 @@ impl Course {
         }
         for (i, w) in self.walls.iter().enumerate() {
             if !(w.thickness > 0.0 && w.height > 0.0) || dist(w.from, w.to) < 1e-6 {
-                return Err(format!("{}: needs two different end points, thickness > 0 and height > 0", self.wall_name(i)));
+                return Err(format!(
+                    "{}: needs two different end points, thickness > 0 and height > 0",
+                    self.wall_name(i)
+                ));
             }
             for seg in self.path.points().windows(2) {
                 let d = segment_distance(w.from, w.to, seg[0], seg[1]);
@@ -296,7 +299,10 @@ impl Course {
 
     /// The distance from `p` to the nearest wall face (negative inside a wall).
     pub fn wall_clearance(&self, p: [f64; 2]) -> f64 {
-        self.walls.iter().map(|w| point_segment_distance(p, w.from, w.to) - w.thickness / 2.0).fold(f64::INFINITY, f64::min)
+        self.walls
+            .iter()
+            .map(|w| point_segment_distance(p, w.from, w.to) - w.thickness / 2.0)
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// Where a robot starts: the path's first point, facing along it.

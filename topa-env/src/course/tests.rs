@@ -29,7 +29,8 @@ fn a_path_that_leaves_its_floor_is_named_with_where() {
 
 #[test]
 fn overlapping_walls_and_walls_on_the_path_are_named() {
-    let err = with("[[wall]]\nfrom = [5.0, 1.0]\nto = [5.0, 3.0]\n[[wall]]\nfrom = [4.0, 2.0]\nto = [6.0, 2.0]").unwrap_err();
+    let err =
+        with("[[wall]]\nfrom = [5.0, 1.0]\nto = [5.0, 3.0]\n[[wall]]\nfrom = [4.0, 2.0]\nto = [6.0, 2.0]").unwrap_err();
     assert!(err.contains("wall 0") && err.contains("wall 1") && err.contains("overlap"), "{err}");
     let err = with("[[wall]]\nfrom = [5.0, -1.0]\nto = [5.0, 1.0]").unwrap_err();
     assert!(err.contains("wall 0") && err.contains("from the path"), "{err}");
@@ -42,7 +43,9 @@ fn overlapping_walls_and_walls_on_the_path_are_named() {
 fn wrong_keys_and_values_are_named() {
     assert!(with("[[threshold]]\nat_m = 5.0\nheight = 0.2").unwrap_err().contains("not a threshold"));
     assert!(with("[[threshold]]\nat_m = 500.0\nheight = 0.01").unwrap_err().contains("100.0 m long"));
-    assert!(with("[[floor]]\nmaterial = \"ice\"\nmin = [0, 0]\nmax = [1, 1]").unwrap_err().contains("no material 'ice'"));
+    assert!(with("[[floor]]\nmaterial = \"ice\"\nmin = [0, 0]\nmax = [1, 1]")
+        .unwrap_err()
+        .contains("no material 'ice'"));
     let err = with("[[threshold]]\nat_m = 5.0\nheigth = 0.01").unwrap_err();
     assert!(err.contains("heigth"), "{err}");
     let err = Course::load(std::path::Path::new("no/such/course.toml")).unwrap_err();
@@ -56,5 +59,7 @@ fn the_course_compiles_with_the_robot_and_its_floor_carries_the_material_frictio
     let m = crate::world::compile(&spec, &c.world()).unwrap();
     let g = m.id(mujoco_sys::ObjType::Geom, "course_floor0").unwrap();
     assert_eq!(m.geom_friction()[g][0], 0.45);
-    assert!(m.names(mujoco_sys::ObjType::Geom).iter().filter(|n| n.starts_with(mjcf::WALL_PREFIX)).count() == c.walls.len());
+    assert!(
+        m.names(mujoco_sys::ObjType::Geom).iter().filter(|n| n.starts_with(mjcf::WALL_PREFIX)).count() == c.walls.len()
+    );
 }

@@ -89,6 +89,8 @@ pub struct RobotEnv {
     fatal: Option<EnvError>,
     /// Realistic sim2sim (estimator, sensor noise, latency, torque–speed limits), when configured.
     sim2sim: Option<Sim2Sim>,
+    /// Where the next reset puts the base (x, y, yaw) instead of the keyframe's place.
+    start_pose: Option<[f64; 3]>,
 }
 
 impl RobotEnv {
@@ -161,6 +163,7 @@ impl RobotEnv {
             physics_ns: 0,
             fatal: None,
             sim2sim,
+            start_pose: None,
         })
     }
 
@@ -212,6 +215,13 @@ impl RobotEnv {
     /// The realistic-sim2sim state (estimator, sensors), if configured.
     pub fn sim2sim(&self) -> Option<&Sim2Sim> {
         self.sim2sim.as_ref()
+    }
+
+    /// A reset with the base put at (x, y) on the ground, heading `yaw` (rad), in the stand pose: a robot put back
+    /// on a course.
+    pub fn reset_at(&mut self, obs: &mut [f32], [x, y, yaw]: [f64; 3]) -> Result<()> {
+        self.start_pose = Some([x, y, yaw]);
+        self.reset(obs)
     }
 
     /// After editing the state through `data_mut`: recompute derived quantities and the observation.
@@ -385,6 +395,16 @@ impl Task for RobotEnv {
             self.randomize_model()?;
         }
         self.data.reset_keyframe(self.idx.stand_key)?;
+        if let Some([x, y, yaw]) = self.start_pose.take() {
+            let b = self.idx.base_qpos;
+            let q = self.data.qpos()[b + 3..b + 7].to_vec();
+            let turn = nalgebra::UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw) * quat_of(&q);
+            let qpos = self.data.qpos_mut();
+            qpos[b] += x;
+            qpos[b + 1] += y;
+            let c = turn.quaternion();
+            qpos[b + 3..b + 7].copy_from_slice(&[c.w, c.i, c.j, c.k]);
+        }
         self.data.set_time(0.0);
         self.data.xfrc_applied_mut().iter_mut().for_each(|w| *w = [0.0; 6]);
         // A small random initial base velocity, so episodes do not all start identically.

@@ -1,0 +1,284 @@
+//! The paper's real-world test over groups of seeds (`topa field`): every policy driven over the course at each
+//! top speed and run for the endurance minutes, in each sim2sim mode; per group and mode the share of seeds that
+//! reach the goal, finish clean, the best clean time, joint-limit hits and the endurance interventions, with the
+//! paper's numbers beside; and the paper's three real-world claims, each answered yes or no with the numbers.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{ensure, Context, Result};
+use serde::{Deserialize, Serialize};
+use topa_env::course::Course;
+use topa_env::policy_runner::PolicyRunner;
+
+use super::course::{self, CourseResult};
+use super::endurance::{self, EnduranceRun, Operator};
+use super::groups::Stat;
+use super::report::{self, PaperTables};
+use super::results::Group;
+use super::settings::{EvalSettings, Sim2SimMode};
+
+/// What the field test runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FieldExtent {
+    pub course: PathBuf,
+    pub speeds: Vec<f64>,
+    pub endurance_minutes: f64,
+    pub modes: Vec<Sim2SimMode>,
+    pub operator: Operator,
+}
+
+/// One policy in one sim2sim mode.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FieldMode {
+    pub sim2sim: Sim2SimMode,
+    pub course: CourseResult,
+    pub endurance: EnduranceRun,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FieldPolicy {
+    pub name: Group,
+    pub policy: PathBuf,
+    pub modes: Vec<FieldMode>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Field {
+    pub extent: FieldExtent,
+    /// Evaluation settings apart from the sim2sim mode (the extent's modes replace it).
+    pub settings: EvalSettings,
+    pub results: Vec<FieldPolicy>,
+}
+
+/// Runs the course and the endurance run for each (group, policy) in each mode.
+pub fn run(policies: &[(Group, PathBuf)], base: &EvalSettings, extent: &FieldExtent) -> Result<Field> {
+    ensure!(!policies.is_empty(), "give at least one policy with --o, --c or --ca");
+    let map =
+        Course::load(&topa_env::assets::robot_path(&extent.course.to_string_lossy())).map_err(anyhow::Error::msg)?;
+    let mut results = Vec::new();
+    for (group, path) in policies {
+        let mut runner = PolicyRunner::load(path, group.label())?;
+        let mut modes = Vec::new();
+        for mode in &extent.modes {
+            let s = base.clone().with_sim2sim(mode)?;
+            eprintln!(
+                "{}: {} — course and {} min run, {mode} sim2sim",
+                group.label(),
+                path.display(),
+                extent.endurance_minutes
+            );
+            let course = course::run(&mut runner, &map, &s, &extent.speeds, None)?;
+            let endurance = endurance::run(&mut runner, &s, extent.endurance_minutes, 1, &extent.operator)?.remove(0);
+            modes.push(FieldMode { sim2sim: mode.clone(), course, endurance });
+        }
+        results.push(FieldPolicy { name: *group, policy: path.clone(), modes });
+    }
+    Ok(Field { extent: extent.clone(), settings: base.clone(), results })
+}
+
+/// Joins field.json files of earlier runs (same extent and settings, each policy once).
+pub fn merge(files: &[PathBuf]) -> Result<Field> {
+    ensure!(files.len() >= 2, "--merge takes at least two field.json files");
+    let mut out: Option<Field> = None;
+    for f in files {
+        let text = std::fs::read_to_string(f).with_context(|| format!("--merge: cannot read {}", f.display()))?;
+        let part: Field = serde_json::from_str(&text)
+            .with_context(|| format!("--merge: {} is not a field.json written by `topa field`", f.display()))?;
+        match &mut out {
+            None => out = Some(part),
+            Some(all) => {
+                ensure!(
+                    part.extent == all.extent && part.settings.seed == all.settings.seed,
+                    "--merge: {} was run with another course, speeds, minutes, modes or seed; merge like runs only",
+                    f.display()
+                );
+                for r in part.results {
+                    ensure!(
+                        !all.results.iter().any(|q| q.policy == r.policy),
+                        "--merge: policy {} is in more than one file; it would count as two seeds",
+                        r.policy.display()
+                    );
+                    all.results.push(r);
+                }
+            }
+        }
+    }
+    let mut all = out.unwrap();
+    all.results.sort_by_key(|r| r.name);
+    Ok(all)
+}
+
+/// Reads a field.json.
+pub fn load(file: &Path) -> Result<Field> {
+    let text = std::fs::read_to_string(file).with_context(|| format!("--field: cannot read {}", file.display()))?;
+    serde_json::from_str(&text)
+        .with_context(|| format!("--field: {} is not a field.json written by `topa field`", file.display()))
+}
+
+/// One group in one mode.
+struct GroupMode<'a> {
+    group: Group,
+    runs: Vec<&'a FieldMode>,
+}
+
+fn by_group<'a>(f: &'a Field, mode: &Sim2SimMode) -> Vec<GroupMode<'a>> {
+    Group::ALL
+        .into_iter()
+        .map(|group| GroupMode {
+            group,
+            runs: f
+                .results
+                .iter()
+                .filter(|r| r.name == group)
+                .filter_map(|r| r.modes.iter().find(|m| &m.sim2sim == mode))
+                .collect(),
+        })
+        .filter(|g| !g.runs.is_empty())
+        .collect()
+}
+
+impl GroupMode<'_> {
+    fn n(&self) -> usize {
+        self.runs.len()
+    }
+    fn reached(&self) -> usize {
+        self.runs.iter().filter(|m| m.course.finished()).count()
+    }
+    fn clean_times(&self) -> Vec<f64> {
+        self.runs.iter().filter_map(|m| m.course.best_clean_time()).collect()
+    }
+    fn limit_hits(&self) -> Stat {
+        Stat::of(&self.runs.iter().map(|m| m.course.max_joint_limit_hits_per_min()).collect::<Vec<_>>())
+    }
+    fn endurance_clean(&self) -> usize {
+        self.runs.iter().filter(|m| m.endurance.interventions == 0).count()
+    }
+    fn endurance_interventions(&self) -> Stat {
+        Stat::of(&self.runs.iter().map(|m| m.endurance.interventions as f64).collect::<Vec<_>>())
+    }
+}
+
+/// The group table per mode, with the paper's numbers beside.
+pub fn markdown(f: &Field, paper: &PaperTables) -> String {
+    let e = &f.extent;
+    let mut s = format!(
+        "Course {} at top speeds {:?} m/s (the best clean time is the fastest run with no intervention); a {}-minute \
+         run under a joystick operator with pushes. Cells: ours (paper, the real robot).\n",
+        e.course.display(),
+        e.speeds,
+        e.endurance_minutes
+    );
+    for mode in &e.modes {
+        s.push_str(&format!(
+            "\n{mode} sim2sim:\n\n| Group | seeds | reach the goal | finish clean | best clean time, min (mean ± sd) | joint-limit hits/min | {} min without intervention | interventions in {} min |\n|---|---:|---:|---:|---:|---:|---:|---:|\n",
+            e.endurance_minutes, e.endurance_minutes
+        ));
+        for g in by_group(f, mode) {
+            let times: Vec<f64> = g.clean_times().iter().map(|t| t / 60.0).collect();
+            let paper_time = match g.group {
+                Group::O => " (did not finish)".to_string(),
+                k => paper.course_minutes.get(k.key()).map_or(String::new(), |m| format!(" ({m:.1})")),
+            };
+            let paper_endurance =
+                if g.group == Group::CA { format!(" ({:.0} min)", paper.continuous_minutes_ca) } else { String::new() };
+            s.push_str(&format!(
+                "| {} | {} | {}/{} | {}/{} | {}{paper_time} | {} | {}/{}{paper_endurance} | {} |\n",
+                g.group.label(),
+                g.n(),
+                g.reached(),
+                g.n(),
+                times.len(),
+                g.n(),
+                if times.is_empty() { "–".into() } else { Stat::of(&times).show(2) },
+                g.limit_hits().show(1),
+                g.endurance_clean(),
+                g.n(),
+                g.endurance_interventions().show(1)
+            ));
+        }
+    }
+    s
+}
+
+/// The paper's real-world claims, per mode: (claim, holds, numbers).
+pub fn claims(f: &Field) -> Vec<(String, bool, String)> {
+    let mut out = Vec::new();
+    for mode in &f.extent.modes {
+        let groups = by_group(f, mode);
+        let get = |k: Group| groups.iter().find(|g| g.group == k);
+        if let Some(o) = get(Group::O) {
+            let clean = o.clean_times().len();
+            let most_hits = groups.iter().all(|g| g.group == Group::O || g.limit_hits().mean <= o.limit_hits().mean);
+            out.push((
+                format!("{mode}: O does not finish cleanly at any speed, or has the most joint-limit hits"),
+                clean == 0 || most_hits,
+                format!(
+                    "O: {clean}/{} seeds finish clean; joint-limit hits/min {}",
+                    o.n(),
+                    groups
+                        .iter()
+                        .map(|g| format!("{} {}", g.group.label(), g.limit_hits().show(1)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        }
+        for k in [Group::C, Group::CA] {
+            if let Some(g) = get(k) {
+                out.push((
+                    format!("{mode}: every {} seed reaches the goal", k.label()),
+                    g.reached() == g.n(),
+                    format!("{}/{} seeds", g.reached(), g.n()),
+                ));
+            }
+        }
+        if let (Some(c), Some(ca)) = (get(Group::C), get(Group::CA)) {
+            let (tc, tca) = (c.clean_times(), ca.clean_times());
+            let (mc, mca) = (Stat::of(&tc).mean, Stat::of(&tca).mean);
+            out.push((
+                format!("{mode}: C+A's best clean time below C's (paper: about half)"),
+                !tca.is_empty() && (tc.is_empty() || mca < mc),
+                format!(
+                    "C {} s ({}/{} seeds clean), C+A {} s ({}/{} seeds clean)",
+                    Stat::of(&tc).show(0),
+                    tc.len(),
+                    c.n(),
+                    Stat::of(&tca).show(0),
+                    tca.len(),
+                    ca.n()
+                ),
+            ));
+            out.push((
+                format!("{mode}: C+A runs {} min without intervention on every seed", f.extent.endurance_minutes),
+                ca.endurance_clean() == ca.n(),
+                format!(
+                    "{}/{} seeds; interventions per seed: {:?}",
+                    ca.endurance_clean(),
+                    ca.n(),
+                    ca.runs.iter().map(|m| m.endurance.interventions).collect::<Vec<_>>()
+                ),
+            ));
+        }
+    }
+    out
+}
+
+pub fn claims_markdown(f: &Field) -> String {
+    let mut s = String::from("| real-world claim (in simulation) | holds | numbers |\n|---|---|---|\n");
+    for (claim, holds, numbers) in claims(f) {
+        s.push_str(&format!("| {claim} | {} | {numbers} |\n", if holds { "yes" } else { "no" }));
+    }
+    s
+}
+
+/// Writes field.md and field.json into `out`.
+pub fn write(f: &Field, out: &Path) -> Result<String> {
+    let md = format!("{}\n{}", markdown(f, &report::paper()?), claims_markdown(f));
+    report::write_text(out, "field.md", &md)?;
+    report::write_json(out, "field.json", f)?;
+    Ok(md)
+}
