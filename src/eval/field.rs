@@ -282,3 +282,101 @@ pub fn write(f: &Field, out: &Path) -> Result<String> {
     report::write_json(out, "field.json", f)?;
     Ok(md)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::course::CourseRun;
+
+    fn run(speed: f64, finished: bool, time_s: f64, falls: usize, hits: f64) -> CourseRun {
+        CourseRun {
+            top_speed: speed,
+            finished,
+            time_s,
+            falls,
+            wall_contacts: 0,
+            stuck: 0,
+            joint_limit_hits_per_min: hits,
+            mean_off_path_m: 0.0,
+            max_off_path_m: 0.0,
+            progress_m: 0.0,
+            trajectory: vec![],
+            intervention_at: vec![],
+        }
+    }
+
+    fn policy(name: Group, file: &str, runs: Vec<CourseRun>, endurance_falls: usize) -> FieldPolicy {
+        FieldPolicy {
+            name,
+            policy: file.into(),
+            modes: vec![FieldMode {
+                sim2sim: Sim2SimMode::Ideal,
+                course: CourseResult { course: "t".into(), length_m: 100.0, runs },
+                endurance: EnduranceRun { minutes: 40.0, interventions: endurance_falls, ..Default::default() },
+            }],
+        }
+    }
+
+    fn field(results: Vec<FieldPolicy>) -> Field {
+        Field {
+            extent: FieldExtent {
+                course: "assets/courses/indoor.toml".into(),
+                speeds: vec![0.3, 0.7],
+                endurance_minutes: 40.0,
+                modes: vec![Sim2SimMode::Ideal],
+                operator: Operator::default(),
+            },
+            settings: EvalSettings::default(),
+            results,
+        }
+    }
+
+    #[test]
+    fn the_papers_claims_are_answered_from_the_runs() {
+        let f = field(vec![
+            policy(Group::O, "o1", vec![run(0.3, false, 1000.0, 4, 3.0), run(0.7, true, 400.0, 2, 5.0)], 7),
+            policy(Group::C, "c1", vec![run(0.3, true, 400.0, 0, 0.5), run(0.7, true, 200.0, 1, 1.0)], 1),
+            policy(Group::C, "c2", vec![run(0.3, true, 420.0, 0, 0.0), run(0.7, true, 190.0, 0, 0.2)], 0),
+            policy(Group::CA, "ca1", vec![run(0.3, true, 410.0, 0, 0.0), run(0.7, true, 150.0, 0, 0.0)], 0),
+        ]);
+        let c = claims(&f);
+        let holds: Vec<bool> = c.iter().map(|x| x.1).collect();
+        // O never clean; C and C+A all reach the goal; C+A's best clean time (150) below C's mean (400, 190 → 295);
+        // C+A 40 minutes clean.
+        assert_eq!(holds, [true, true, true, true, true], "{c:?}");
+        assert!(c[3].2.contains("C 295 ± 148 s (2/2 seeds clean)"), "{}", c[3].2);
+        let md = markdown(&f, &report::paper().unwrap());
+        assert!(md.contains("| O | 1 | 1/1 | 0/1 | – (did not finish) | 5.0 |"), "{md}");
+        assert!(md.contains("| C+A | 1 | 1/1 | 1/1 | 2.50 (3.1) |"), "{md}");
+
+        // A C+A seed that falls in the endurance run and is slower than C: both claims fail, with the numbers.
+        let f = field(vec![
+            policy(Group::C, "c1", vec![run(0.7, true, 150.0, 0, 0.0)], 0),
+            policy(Group::CA, "ca1", vec![run(0.7, true, 160.0, 0, 0.0)], 2),
+        ]);
+        let c = claims(&f);
+        assert_eq!(c.iter().map(|x| x.1).collect::<Vec<_>>(), [true, true, false, false], "{c:?}");
+        assert!(c[3].2.contains("0/1 seeds; interventions per seed: [2]"), "{}", c[3].2);
+    }
+
+    #[test]
+    fn merging_refuses_other_extents_and_double_policies() {
+        let dir = std::env::temp_dir().join(format!("topa-field-merge-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let write = |name: &str, f: &Field| {
+            report::write_json(&dir, name, f).unwrap();
+            dir.join(name)
+        };
+        let a = write("a.json", &field(vec![policy(Group::C, "c1", vec![run(0.7, true, 150.0, 0, 0.0)], 0)]));
+        let b = write("b.json", &field(vec![policy(Group::O, "o1", vec![run(0.7, false, 900.0, 3, 2.0)], 5)]));
+        let m = merge(&[a.clone(), b.clone()]).unwrap();
+        assert_eq!(m.results.iter().map(|r| r.name).collect::<Vec<_>>(), [Group::O, Group::C]);
+        let err = format!("{:#}", merge(&[a.clone(), a.clone()]).unwrap_err());
+        assert!(err.contains("c1 is in more than one file"), "{err}");
+        let mut other = field(vec![policy(Group::CA, "ca1", vec![], 0)]);
+        other.extent.endurance_minutes = 10.0;
+        let o = write("o.json", &other);
+        assert!(format!("{:#}", merge(&[a, o]).unwrap_err()).contains("another course"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
