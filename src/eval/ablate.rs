@@ -203,6 +203,10 @@ pub fn markdown(a: &Ablation) -> Result<String> {
             a.extent.describe()
         )
     };
+    let field = match field_section(a)? {
+        f if f.is_empty() => f,
+        f => format!("## The paper's real-world test, in simulation\n\n{f}\n"),
+    };
     Ok(format!(
         "{protocol}\n\n## Headline numbers\n\n{grid_note}{}\n## The paper's claims and the bars, checked\n\n{}\n## Commanded velocity \
          tracking\n{}\n## Gait\n\n{}\n## Intervals\n\n{}\n## Each policy\n\n{}",
@@ -213,17 +217,13 @@ pub fn markdown(a: &Ablation) -> Result<String> {
         groups::intervals_markdown(&g, a.extent.resolution().push),
         groups::per_policy_markdown(&a.results),
     )
-    .replace("## Each policy", &format!("{}## Each policy", field_section(a)?)))
+    .replace("## Each policy", &format!("{field}## Each policy")))
 }
 
-/// The real-world test's section, when a field report is attached.
+/// The real-world test's tables and claims, when a field report is attached (empty otherwise).
 fn field_section(a: &Ablation) -> Result<String> {
     Ok(match &a.field {
-        Some(f) => format!(
-            "## The paper's real-world test, in simulation\n\n{}\n{}\n",
-            super::field::markdown(f, &report::paper()?),
-            super::field::claims_markdown(f)
-        ),
+        Some(f) => format!("{}\n{}", super::field::markdown(f, &report::paper()?), super::field::claims_markdown(f)),
         None => String::new(),
     })
 }
