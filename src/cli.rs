@@ -29,6 +29,9 @@ pub enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// System identification: excitation trajectories for the motors.
+    #[command(subcommand)]
+    Sysid(crate::sysid_cmd::SysidCmd),
     /// Performance benchmarks (ratios measured in one run).
     #[command(subcommand)]
     Bench(BenchCmd),

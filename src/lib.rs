@@ -16,6 +16,8 @@ pub mod play;
 pub mod plots;
 pub mod recording;
 pub mod robot_info;
+pub mod sysid;
+pub mod sysid_cmd;
 pub mod train_cmd;
 pub mod video;
 

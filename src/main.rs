@@ -34,6 +34,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             extent.tracking_starts = tracking_starts.unwrap_or(extent.tracking_starts);
             eval_cmd::run_ablate(o, c, ca, extent, field.as_deref(), common)
         }
+        Cmd::Sysid(cmd) => topa::sysid_cmd::run(cmd),
         Cmd::Field { merge, common, .. } if !merge.is_empty() => eval_cmd::merge_field(&merge, common),
         Cmd::Field { o, c, ca, course, speeds, minutes, modes, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
