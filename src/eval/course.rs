@@ -116,7 +116,8 @@ pub fn run(
     let ranges = cfg.commands.clone();
     let drivers =
         speeds.iter().map(|&v| Driver::new(v, &ranges)).collect::<Result<Vec<_>, _>>().map_err(anyhow::Error::msg)?;
-    let model = topa_env::world::compile(runner.robot(), &course.world())?;
+    let (model, friction) = course.compile(runner.robot())?;
+    let friction = std::sync::Arc::new(friction);
     let walls: HashSet<usize> = (0..model.ngeom())
         .filter(|&g| model.name_of(ObjType::Geom, g).is_some_and(|n| n.starts_with(WALL_PREFIX)))
         .collect();
@@ -125,6 +126,7 @@ pub fn run(
     let start = course.start();
     for i in 0..speeds.len() {
         let (task, obs) = batch.env_mut(i);
+        task.set_ground_friction(Some(friction.clone()));
         task.reset_at(obs, [start.xy[0], start.xy[1], start.heading])?;
         task.set_command_override(Some([0.0; 3]));
     }
@@ -241,7 +243,8 @@ impl Follower {
             .any(|c| walls.contains(&(c.geom1 as usize)) || walls.contains(&(c.geom2 as usize)));
         let cause = if touches_wall {
             &mut self.run.wall_contacts
-        } else if task.has_fallen() {
+        } else if task.has_fallen() || course.material_at(xy).is_none() {
+            // Off every floor patch is off the course: in a building, a fall down a step or into a wall.
             &mut self.run.falls
         } else if t - self.last_progress_t > STUCK_S {
             &mut self.run.stuck

@@ -1,6 +1,7 @@
 //! A robot in a world of our making (a course, terrain): the robot's own MJCF with the world's geoms spliced into
 //! its `<worldbody>`, compiled in memory with includes resolved beside the robot's file — no hand-edited copy of
-//! the robot. The robot's own floor is switched off (no contacts, not drawn): the world brings its ground.
+//! the robot. The robot's own floor is hidden; it either stays the ground (a flat world whose friction varies from
+//! place to place: `FrictionMap`) or is switched off (the world brings its own ground, e.g. terrain).
 
 use std::sync::Arc;
 
@@ -14,7 +15,33 @@ use crate::spec::RobotSpec;
 pub struct WorldXml {
     pub assets: String,
     pub worldbody: String,
+    /// Keep the robot's floor as the (hidden) ground instead of switching its contacts off.
+    pub keep_floor: bool,
 }
+
+/// The friction of a flat ground by place: axis-aligned patches over a default. Contact friction in MuJoCo is per
+/// geom, not per place, so an env with a map gives each foot the friction of the patch under it before every step
+/// and keeps the floor's own below any patch's (MuJoCo takes the larger of the two geoms').
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrictionMap {
+    /// (min corner, max corner, sliding friction); the last patch containing a point wins.
+    pub patches: Vec<([f64; 2], [f64; 2], f64)>,
+    /// Where no patch is.
+    pub default: f64,
+}
+
+impl FrictionMap {
+    pub fn at(&self, p: [f64; 2]) -> f64 {
+        self.patches
+            .iter()
+            .rev()
+            .find(|(lo, hi, _)| (lo[0]..=hi[0]).contains(&p[0]) && (lo[1]..=hi[1]).contains(&p[1]))
+            .map_or(self.default, |(_, _, mu)| *mu)
+    }
+}
+
+/// The floor's own sliding friction under a friction map: below every patch, so that the feet's value rules.
+pub const MAPPED_FLOOR_FRICTION: f64 = 0.01;
 
 /// The robot's MJCF text with `world` spliced in (for inspection or a file a user opens in MuJoCo's viewer).
 pub fn mjcf_text(spec: &RobotSpec, world: &WorldXml) -> Result<String> {
@@ -43,8 +70,10 @@ pub fn compile(spec: &RobotSpec, world: &WorldXml) -> Result<Arc<Model>> {
     let dir = spec.mjcf.parent().unwrap_or(std::path::Path::new("."));
     let mut model = Model::from_xml_string(&xml, dir)?;
     let floor = model.id(ObjType::Geom, &spec.floor_geom)?;
-    model.geom_contype_mut()[floor] = 0;
-    model.geom_conaffinity_mut()[floor] = 0;
+    if !world.keep_floor {
+        model.geom_contype_mut()[floor] = 0;
+        model.geom_conaffinity_mut()[floor] = 0;
+    }
     model.geom_rgba_mut()[floor][3] = 0.0;
     Ok(Arc::new(model))
 }
@@ -71,6 +100,7 @@ mod tests {
             worldbody: r#"<geom name="w_floor" type="box" size="2 2 0.05" pos="0 0 -0.05" material="w_mat"
                  contype="0" conaffinity="1" priority="1" friction="0.4 0.005 0.0001"/>"#
                 .into(),
+            keep_floor: false,
         };
         let m = compile(&spec, &world).unwrap();
         let (_, plain) = RobotSpec::load(&spec.path).unwrap();
@@ -81,6 +111,17 @@ mod tests {
         let box_ = m.id(ObjType::Geom, "w_floor").unwrap();
         assert!(is_ground(&m, box_) && is_ground(&m, floor));
         assert_eq!(m.geom_friction()[box_][0], 0.4);
+        let kept = compile(&spec, &WorldXml { keep_floor: true, ..world }).unwrap();
+        assert_eq!(kept.geom_conaffinity()[floor], 1);
+        assert_eq!(kept.geom_rgba()[floor][3], 0.0);
+    }
+
+    #[test]
+    fn a_friction_map_gives_the_last_patch_under_a_point_or_its_default() {
+        let map = FrictionMap { patches: vec![([0.0, 0.0], [2.0, 2.0], 0.4), ([1.0, 1.0], [3.0, 3.0], 0.7)], default: 1.0 };
+        assert_eq!(map.at([0.5, 0.5]), 0.4);
+        assert_eq!(map.at([1.5, 1.5]), 0.7);
+        assert_eq!(map.at([5.0, 5.0]), 1.0);
     }
 
     #[test]

@@ -1,12 +1,18 @@
-//! A course as MJCF geoms: floor patches as boxes whose top is z = 0 (with `priority` so that the patch's friction,
-//! not the larger of sole and floor, is the contact's), walls, door posts and thresholds as boxes, the path and the
-//! goal drawn without contacts.
+//! A course as MJCF geoms: the robot's own (hidden, flat) floor stays the ground and the floor patches are drawn
+//! on it, their friction given to the feet by a `FrictionMap` (a foot on a box floor costs MuJoCo twice a foot on
+//! a plane); walls, door posts and thresholds are boxes; the path and the goal are drawn without contacts.
 
 use std::fmt::Write;
 
+use std::sync::Arc;
+
+use mujoco_sys::{Model, ObjType};
+
 use super::path::dist;
 use super::Course;
-use crate::world::WorldXml;
+use crate::error::Result;
+use crate::spec::RobotSpec;
+use crate::world::{FrictionMap, WorldXml, MAPPED_FLOOR_FRICTION};
 
 /// Name prefix of the geoms a wall contact is counted on.
 pub const WALL_PREFIX: &str = "course_wall";
@@ -26,14 +32,15 @@ impl Course {
         assets.push_str(r#"  <material name="course_wall_mat" rgba="0.85 0.9 0.95 0.35"/>"#);
         assets.push_str("\n  <material name=\"course_bar_mat\" rgba=\"0.4 0.3 0.2 1\"/>\n");
         let mut body = String::new();
-        let solid = r#"contype="0" conaffinity="1" condim="3" priority="1""#;
+        let solid = r#"contype="0" conaffinity="1" condim="3""#;
         for (i, f) in self.floor.iter().enumerate() {
-            let mu = self.materials[&f.material].friction;
             let (cx, cy) = ((f.min[0] + f.max[0]) / 2.0, (f.min[1] + f.max[1]) / 2.0);
             let (hx, hy) = ((f.max[0] - f.min[0]) / 2.0, (f.max[1] - f.min[1]) / 2.0);
+            // Later patches a little higher, so that overlaps draw the way `material_at` reads them.
+            let z = -0.002 + 1e-5 * i as f64;
             writeln!(
                 body,
-                r#"  <geom name="course_floor{i}" type="box" pos="{cx} {cy} -0.05" size="{hx} {hy} 0.05" {solid} friction="{mu} 0.005 0.0001" material="course_{}"/>"#,
+                r#"  <geom name="course_floor{i}" type="box" pos="{cx} {cy} {z}" size="{hx} {hy} 0.001" contype="0" conaffinity="0" material="course_{}"/>"#,
                 f.material
             )
             .unwrap();
@@ -94,6 +101,17 @@ impl Course {
             g[0], g[1], self.goal_radius
         )
         .unwrap();
-        WorldXml { assets, worldbody: body }
+        WorldXml { assets, worldbody: body, keep_floor: true }
+    }
+
+    /// The robot on this course, and the friction under its feet.
+    pub fn compile(&self, spec: &RobotSpec) -> Result<(Arc<Model>, FrictionMap)> {
+        let mut model = crate::world::compile(spec, &self.world())?;
+        let floor = model.id(ObjType::Geom, &spec.floor_geom)?;
+        Arc::make_mut(&mut model).geom_friction_mut()[floor][0] = MAPPED_FLOOR_FRICTION;
+        let patches = self.floor.iter().map(|f| (f.min, f.max, self.materials[&f.material].friction)).collect();
+        // Off every patch the robot is off the course; the first material stands in until it is put back.
+        let default = self.floor.first().map_or(1.0, |f| self.materials[&f.material].friction);
+        Ok((model, FrictionMap { patches, default }))
     }
 }

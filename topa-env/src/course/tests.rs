@@ -53,13 +53,16 @@ fn wrong_keys_and_values_are_named() {
 }
 
 #[test]
-fn the_course_compiles_with_the_robot_and_its_floor_carries_the_material_friction() {
+fn the_course_compiles_with_the_robot_and_its_feet_get_the_material_friction() {
     let spec = crate::spec::RobotSpec::load(&crate::assets::robot_path("assets/robots/topa_closed.toml")).unwrap().0;
     let c = Course::parse(INDOOR).unwrap();
-    let m = crate::world::compile(&spec, &c.world()).unwrap();
-    let g = m.id(mujoco_sys::ObjType::Geom, "course_floor0").unwrap();
-    assert_eq!(m.geom_friction()[g][0], 0.45);
-    assert!(
-        m.names(mujoco_sys::ObjType::Geom).iter().filter(|n| n.starts_with(mjcf::WALL_PREFIX)).count() == c.walls.len()
-    );
+    let (m, map) = c.compile(&spec).unwrap();
+    let floor = m.id(mujoco_sys::ObjType::Geom, &spec.floor_geom).unwrap();
+    assert_eq!(m.geom_friction()[floor][0], crate::world::MAPPED_FLOOR_FRICTION);
+    assert_eq!(m.geom_conaffinity()[floor], 1, "the robot's floor stays the ground");
+    assert_eq!((map.at([5.0, 0.0]), map.at([20.0, 8.0])), (0.45, 0.65));
+    let patch = m.id(mujoco_sys::ObjType::Geom, "course_floor0").unwrap();
+    assert_eq!(m.geom_conaffinity()[patch], 0, "patches are drawn, the map carries their friction");
+    let walls = m.names(mujoco_sys::ObjType::Geom).iter().filter(|n| n.starts_with(mjcf::WALL_PREFIX)).count();
+    assert_eq!(walls, c.walls.len());
 }

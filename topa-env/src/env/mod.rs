@@ -91,6 +91,8 @@ pub struct RobotEnv {
     sim2sim: Option<Sim2Sim>,
     /// Where the next reset puts the base (x, y, yaw) instead of the keyframe's place.
     start_pose: Option<[f64; 3]>,
+    /// Friction of the ground by place (a course's floors), given to each foot before every step.
+    ground_friction: Option<Arc<crate::world::FrictionMap>>,
 }
 
 impl RobotEnv {
@@ -164,6 +166,7 @@ impl RobotEnv {
             fatal: None,
             sim2sim,
             start_pose: None,
+            ground_friction: None,
         })
     }
 
@@ -215,6 +218,24 @@ impl RobotEnv {
     /// The realistic-sim2sim state (estimator, sensors), if configured.
     pub fn sim2sim(&self) -> Option<&Sim2Sim> {
         self.sim2sim.as_ref()
+    }
+
+    /// Friction of the ground by place (a course's floors): each foot gets the friction under it before every step.
+    pub fn set_ground_friction(&mut self, map: Option<Arc<crate::world::FrictionMap>>) {
+        self.ground_friction = map;
+    }
+
+    /// Each foot's sliding friction to the map's value under it (the model is copied for this env on first write).
+    fn apply_ground_friction(&mut self) {
+        let Some(map) = &self.ground_friction else { return };
+        for f in 0..2 {
+            let p = self.data.xpos()[self.idx.foot_bodies[f]];
+            let mu = map.at([p[0], p[1]]);
+            let g = self.idx.foot_geoms[f];
+            if self.data.model().geom_friction()[g][0] != mu {
+                self.data.model_mut().geom_friction_mut()[g][0] = mu;
+            }
+        }
     }
 
     /// A reset with the base put at (x, y) on the ground, heading `yaw` (rad), in the stand pose: a robot put back
@@ -455,6 +476,7 @@ impl Task for RobotEnv {
                 }
             }
         }
+        self.apply_ground_friction();
         if !self.simulate() {
             self.terms = [0.0; N_TERMS];
             return StepOutcome { reward: 0.0, done: true, time_out: false, diverged: true };
