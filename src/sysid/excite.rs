@@ -17,7 +17,7 @@ pub enum Shape {
     Chirp,
     /// Sum of sines at log-spaced frequencies over the band, random phases, scaled to the amplitude.
     Multisine,
-    /// ± amplitude, switching at random multiples of 1 / (2 × band high).
+    /// ± amplitude, flipping or not at random every 1 / (2 × band high) s.
     Prbs,
 }
 
@@ -116,11 +116,11 @@ impl Design {
                 for i in 0..n {
                     let t = i as f64 * dt;
                     if t >= next {
+                        // Flat spectrum up to ~0.9 × high (sinc² of the bit), down to 1 / duration.
                         if rng.random::<bool>() {
                             level = -level;
                         }
-                        // Hold for 1–(hi/lo) bits, so that the low end of the band is excited too.
-                        next = t + bit * rng.random_range(1.0..=(hi / lo).max(1.0)).floor();
+                        next += bit;
                     }
                     out.push(level);
                 }
