@@ -118,7 +118,8 @@ mod tests {
 
     #[test]
     fn a_friction_map_gives_the_last_patch_under_a_point_or_its_default() {
-        let map = FrictionMap { patches: vec![([0.0, 0.0], [2.0, 2.0], 0.4), ([1.0, 1.0], [3.0, 3.0], 0.7)], default: 1.0 };
+        let map =
+            FrictionMap { patches: vec![([0.0, 0.0], [2.0, 2.0], 0.4), ([1.0, 1.0], [3.0, 3.0], 0.7)], default: 1.0 };
         assert_eq!(map.at([0.5, 0.5]), 0.4);
         assert_eq!(map.at([1.5, 1.5]), 0.7);
         assert_eq!(map.at([5.0, 5.0]), 1.0);
