@@ -47,16 +47,8 @@ pub enum Cmd {
     },
     /// All three experiments for O, C and C+A, with the paper's numbers beside ours and the heatmaps.
     Ablate {
-        /// Policies trained on the open (serial) model: files, or folders whose *.json policies are all taken
-        /// (several seeds: `--o a.json b.json` or `--o assets/policies/O`).
-        #[arg(long, num_args = 1..)]
-        o: Vec<PathBuf>,
-        /// Policies trained on the closed model (files or folders, as --o).
-        #[arg(long, num_args = 1..)]
-        c: Vec<PathBuf>,
-        /// Policies trained on the closed model with the cyclic adversary (files or folders, as --o).
-        #[arg(long, num_args = 1..)]
-        ca: Vec<PathBuf>,
+        #[command(flatten)]
+        groups: eval_cmd::Groups,
         /// The paper's full protocol (13 × 13 push grid, 100 noise runs per level) instead of the quick one.
         #[arg(long)]
         full: bool,
@@ -84,13 +76,8 @@ pub enum Cmd {
     /// The paper's real-world test for O, C and C+A: each policy over the course at several top speeds and on a
     /// long operator-driven run, in each sim2sim mode; the groups' numbers with the paper's and its three claims.
     Field {
-        /// Policies of each group (files or folders), as for `topa ablate`.
-        #[arg(long, num_args = 1..)]
-        o: Vec<PathBuf>,
-        #[arg(long, num_args = 1..)]
-        c: Vec<PathBuf>,
-        #[arg(long, num_args = 1..)]
-        ca: Vec<PathBuf>,
+        #[command(flatten)]
+        groups: eval_cmd::Groups,
         /// The course file.
         #[arg(long, default_value = "assets/courses/indoor.toml")]
         course: PathBuf,

@@ -308,24 +308,34 @@ pub fn policy_files(group: &str, paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     Ok(out)
 }
 
-/// The (group, file) list of `--o`, `--c`, `--ca`.
-fn grouped(o: Vec<PathBuf>, cp: Vec<PathBuf>, ca: Vec<PathBuf>) -> Result<Vec<(Group, PathBuf)>> {
-    let mut policies: Vec<(Group, PathBuf)> = Vec::new();
-    for (group, flag, paths) in [(Group::O, "o", o), (Group::C, "c", cp), (Group::CA, "ca", ca)] {
-        policies.extend(policy_files(flag, &paths)?.into_iter().map(|p| (group, p)));
-    }
-    Ok(policies)
+/// The policies of the paper's three groups.
+#[derive(Args, Clone, Debug)]
+pub struct Groups {
+    /// Policies trained on the open (serial) model: files, or folders whose *.json policies are all taken
+    /// (several seeds: `--o a.json b.json` or `--o assets/policies/O`).
+    #[arg(long, num_args = 1..)]
+    pub o: Vec<PathBuf>,
+    /// Policies trained on the closed model (files or folders, as --o).
+    #[arg(long, num_args = 1..)]
+    pub c: Vec<PathBuf>,
+    /// Policies trained on the closed model with the cyclic adversary (files or folders, as --o).
+    #[arg(long, num_args = 1..)]
+    pub ca: Vec<PathBuf>,
 }
 
-pub fn run_ablate(
-    o: Vec<PathBuf>,
-    cp: Vec<PathBuf>,
-    ca: Vec<PathBuf>,
-    extent: Extent,
-    field: Option<&std::path::Path>,
-    c: Common,
-) -> Result<()> {
-    let policies = grouped(o, cp, ca)?;
+impl Groups {
+    /// The (group, file) list, folders expanded.
+    pub fn policies(self) -> Result<Vec<(Group, PathBuf)>> {
+        let mut policies: Vec<(Group, PathBuf)> = Vec::new();
+        for (group, flag, paths) in [(Group::O, "o", self.o), (Group::C, "c", self.c), (Group::CA, "ca", self.ca)] {
+            policies.extend(policy_files(flag, &paths)?.into_iter().map(|p| (group, p)));
+        }
+        Ok(policies)
+    }
+}
+
+pub fn run_ablate(groups: Groups, extent: Extent, field: Option<&std::path::Path>, c: Common) -> Result<()> {
+    let policies = groups.policies()?;
     extent.check()?;
     let field = field.map(field::load).transpose()?;
     let mut a = ablate::run(&policies, &c.settings()?, &extent)?;
@@ -354,14 +364,8 @@ impl std::str::FromStr for Sim2SimArg {
 }
 
 /// `topa field`: the real-world test of each policy, written to field.{md,json}.
-pub fn run_field(
-    o: Vec<PathBuf>,
-    cp: Vec<PathBuf>,
-    ca: Vec<PathBuf>,
-    extent: field::FieldExtent,
-    c: Common,
-) -> Result<()> {
-    let policies = grouped(o, cp, ca)?;
+pub fn run_field(groups: Groups, extent: field::FieldExtent, c: Common) -> Result<()> {
+    let policies = groups.policies()?;
     for v in &extent.speeds {
         anyhow::ensure!(*v > 0.0, "--speeds: {v} m/s is not a forward speed");
     }

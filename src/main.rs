@@ -26,17 +26,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Ablate { merge, field, common, .. } if !merge.is_empty() => {
             eval_cmd::merge_ablations(&merge, field.as_deref(), common)
         }
-        Cmd::Ablate { o, c, ca, full, push_range, push_step, tracking_starts, field, common, .. } => {
+        Cmd::Ablate { groups, full, push_range, push_step, tracking_starts, field, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let mut extent = if full { Extent::full() } else { Extent::quick() };
             extent.push_range_n = push_range.unwrap_or(extent.push_range_n);
             extent.push_step_n = push_step.unwrap_or(extent.push_step_n);
             extent.tracking_starts = tracking_starts.unwrap_or(extent.tracking_starts);
-            eval_cmd::run_ablate(o, c, ca, extent, field.as_deref(), common)
+            eval_cmd::run_ablate(groups, extent, field.as_deref(), common)
         }
         Cmd::Sysid(cmd) => topa::sysid_cmd::run(cmd),
         Cmd::Field { merge, common, .. } if !merge.is_empty() => eval_cmd::merge_field(&merge, common),
-        Cmd::Field { o, c, ca, course, speeds, minutes, modes, common, .. } => {
+        Cmd::Field { groups, course, speeds, minutes, modes, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let extent = topa::eval::field::FieldExtent {
                 course,
@@ -45,7 +45,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 modes: modes.into_iter().map(|m| m.0).collect(),
                 operator: Default::default(),
             };
-            eval_cmd::run_field(o, c, ca, extent, common)
+            eval_cmd::run_field(groups, extent, common)
         }
         Cmd::Plot { runs, group, out } => {
             if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {

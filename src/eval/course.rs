@@ -28,6 +28,30 @@ pub const JOINT_LIMIT_MARGIN: f64 = 0.02;
 /// Standing still on a zero command before the clock starts, s.
 const SETTLE_S: f64 = 1.0;
 
+/// Counts entries of joints into the last `JOINT_LIMIT_MARGIN` of their ranges.
+#[derive(Debug, Clone)]
+pub struct LimitCounter {
+    at: Vec<bool>,
+    pub hits: usize,
+}
+
+impl LimitCounter {
+    pub fn new(joints: usize) -> Self {
+        LimitCounter { at: vec![false; joints], hits: 0 }
+    }
+    pub fn observe(&mut self, joint_pos: &[f64], range: &[[f64; 2]]) {
+        for (j, (q, [lo, hi])) in joint_pos.iter().zip(range).enumerate() {
+            let at = *q < lo + JOINT_LIMIT_MARGIN || *q > hi - JOINT_LIMIT_MARGIN;
+            self.hits += usize::from(at && !self.at[j]);
+            self.at[j] = at;
+        }
+    }
+    /// After the robot was put back (standing, away from every limit).
+    pub fn restart(&mut self) {
+        self.at.iter_mut().for_each(|a| *a = false);
+    }
+}
+
 /// One run of one policy over the course at one top speed.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct CourseRun {
@@ -93,8 +117,7 @@ struct Follower {
     last_progress_t: f64,
     off_path_sum: f64,
     steps: usize,
-    at_limit: Vec<bool>,
-    limit_hits: usize,
+    limits: LimitCounter,
     done: bool,
 }
 
@@ -154,8 +177,7 @@ pub fn run(
             last_progress_t: 0.0,
             off_path_sum: 0.0,
             steps: 0,
-            at_limit: vec![false; n_motors],
-            limit_hits: 0,
+            limits: LimitCounter::new(n_motors),
             done: false,
         })
         .collect();
@@ -222,13 +244,7 @@ impl Follower {
         if self.steps % ((0.25 / task.config().policy_dt()).round().max(1.0) as usize) == 0 {
             self.run.trajectory.push(xy);
         }
-        for (j, (q, [lo, hi])) in st.joint_pos.iter().zip(&task.indices().joint_range).enumerate() {
-            let at = *q < lo + JOINT_LIMIT_MARGIN || *q > hi - JOINT_LIMIT_MARGIN;
-            if at && !self.at_limit[j] {
-                self.limit_hits += 1;
-            }
-            self.at_limit[j] = at;
-        }
+        self.limits.observe(&st.joint_pos, &task.indices().joint_range);
         let goal = course.path.at(course.path.length()).xy;
         if self.progress > course.path.length() - 2.0 * course.goal_radius
             && topa_env::course::path::dist(xy, goal) < course.goal_radius
@@ -255,7 +271,7 @@ impl Follower {
         self.run.intervention_at.push(xy);
         self.last_progress_t = t;
         self.progress_mark = self.progress;
-        self.at_limit.iter_mut().for_each(|a| *a = false);
+        self.limits.restart();
         let back = course.path.at(self.progress - RESTART_BACK_M);
         Some([back.xy[0], back.xy[1], back.heading])
     }
@@ -266,7 +282,7 @@ impl Follower {
         self.run.time_s = t;
         self.run.progress_m = self.progress;
         self.run.mean_off_path_m = self.off_path_sum / self.steps.max(1) as f64;
-        self.run.joint_limit_hits_per_min = self.limit_hits as f64 / (t / 60.0).max(1e-9);
+        self.run.joint_limit_hits_per_min = self.limits.hits as f64 / (t / 60.0).max(1e-9);
     }
 }
 

@@ -13,7 +13,7 @@ use topa_env::policy_runner::PolicyRunner;
 use topa_env::{Perturbation, VecEnv};
 use trainer::actor_critic::standard_normal;
 
-use super::course::JOINT_LIMIT_MARGIN;
+use super::course::LimitCounter;
 use super::settings::EvalSettings;
 
 /// The operator's habits.
@@ -106,8 +106,7 @@ pub fn run(
         next_push: f64,
         push_until: f64,
         last_push: f64,
-        at_limit: Vec<bool>,
-        hits: usize,
+        limits: LimitCounter,
         last_xy: [f64; 2],
         run: EnduranceRun,
     }
@@ -125,8 +124,7 @@ pub fn run(
                 next_push,
                 push_until: -1.0,
                 last_push: f64::NEG_INFINITY,
-                at_limit: vec![false; n_motors],
-                hits: 0,
+                limits: LimitCounter::new(n_motors),
                 last_xy: [0.0; 2],
                 run: EnduranceRun { minutes, minutes_to_first: minutes, ..Default::default() },
             }
@@ -176,11 +174,7 @@ pub fn run(
             let xy = [rs.base_pos[0], rs.base_pos[1]];
             e.run.distance_m += (xy[0] - e.last_xy[0]).hypot(xy[1] - e.last_xy[1]);
             e.last_xy = xy;
-            for (j, (q, [lo, hi])) in rs.joint_pos.iter().zip(&task.indices().joint_range).enumerate() {
-                let at = *q < lo + JOINT_LIMIT_MARGIN || *q > hi - JOINT_LIMIT_MARGIN;
-                e.hits += usize::from(at && !e.at_limit[j]);
-                e.at_limit[j] = at;
-            }
+            e.limits.observe(&rs.joint_pos, &task.indices().joint_range);
             if task.has_fallen() {
                 let r = &mut e.run;
                 if r.interventions == 0 {
@@ -199,14 +193,17 @@ pub fn run(
                 }
                 let yaw = rs.yaw;
                 task.reset_at(obs, [xy[0], xy[1], yaw])?;
-                e.at_limit.iter_mut().for_each(|a| *a = false);
+                e.limits.restart();
                 e.stick = [0.0; 3];
                 e.push_until = t;
                 e.last_xy = xy;
             }
         }
     }
-    Ok(st.into_iter().map(|e| EnduranceRun { joint_limit_hits_per_min: e.hits as f64 / minutes, ..e.run }).collect())
+    Ok(st
+        .into_iter()
+        .map(|e| EnduranceRun { joint_limit_hits_per_min: e.limits.hits as f64 / minutes, ..e.run })
+        .collect())
 }
 
 /// The runs as a Markdown table.
