@@ -9,13 +9,10 @@ use std::sync::Arc;
 use mujoco_sys::{Model, ObjType};
 
 use super::path::dist;
-use super::Course;
+use super::{Course, WALL_PREFIX};
 use crate::error::Result;
 use crate::spec::RobotSpec;
 use crate::world::{FrictionMap, WorldXml, MAPPED_FLOOR_FRICTION};
-
-/// Name prefix of the geoms a wall contact is counted on.
-pub const WALL_PREFIX: &str = "course_wall";
 
 fn quat_z(yaw: f64) -> String {
     format!("{:.6} 0 0 {:.6}", (yaw / 2.0).cos(), (yaw / 2.0).sin())

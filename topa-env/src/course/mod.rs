@@ -4,7 +4,6 @@
 //! the MJCF geoms a robot walks it in (see `world.rs`).
 
 mod mjcf;
-pub use mjcf::WALL_PREFIX;
 pub mod path;
 
 use std::collections::BTreeMap;
@@ -143,6 +142,9 @@ pub struct Course {
     pub thresholds: Vec<Threshold>,
     pub doors: Vec<Door>,
 }
+
+/// Name prefix of the geoms a wall contact is counted on (walls and door posts).
+pub const WALL_PREFIX: &str = "course_wall";
 
 /// Walls must leave this much room between their face and the path, m (half a robot's width).
 pub const PATH_CLEARANCE: f64 = 0.15;

@@ -63,6 +63,6 @@ fn the_course_compiles_with_the_robot_and_its_feet_get_the_material_friction() {
     assert_eq!((map.at([5.0, 0.0]), map.at([20.0, 8.0])), (0.45, 0.65));
     let patch = m.id(mujoco_sys::ObjType::Geom, "course_floor0").unwrap();
     assert_eq!(m.geom_conaffinity()[patch], 0, "patches are drawn, the map carries their friction");
-    let walls = m.names(mujoco_sys::ObjType::Geom).iter().filter(|n| n.starts_with(mjcf::WALL_PREFIX)).count();
+    let walls = m.names(mujoco_sys::ObjType::Geom).iter().filter(|n| n.starts_with(WALL_PREFIX)).count();
     assert_eq!(walls, c.walls.len());
 }
