@@ -142,13 +142,7 @@ pub fn merge(files: &[PathBuf]) -> Result<Ablation> {
         })?;
         parts.push((f, a));
     }
-    let comparable = |s: &EvalSettings| -> Result<serde_json::Value> {
-        let mut v = serde_json::to_value(s)?;
-        v.as_object_mut().map(|o| o.remove("threads"));
-        Ok(v)
-    };
     let (first_file, first) = &parts[0];
-    let settings0 = comparable(&first.settings)?;
     let mut results: Vec<PolicyResults> = Vec::new();
     for (f, a) in &parts {
         ensure!(
@@ -160,7 +154,7 @@ pub fn merge(files: &[PathBuf]) -> Result<Ablation> {
             first.extent.describe()
         );
         ensure!(
-            comparable(&a.settings)? == settings0,
+            a.settings.same_results_as(&first.settings)?,
             "--merge: {} was run with other evaluation settings (timestep, sim2sim, integrator, settle time or seed) \
              than {}; merge only runs made with the same flags",
             f.display(),

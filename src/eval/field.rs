@@ -92,8 +92,9 @@ pub fn merge(files: &[PathBuf]) -> Result<Field> {
             None => out = Some(part),
             Some(all) => {
                 ensure!(
-                    part.extent == all.extent && part.settings.seed == all.settings.seed,
-                    "--merge: {} was run with another course, speeds, minutes, modes or seed; merge like runs only",
+                    part.extent == all.extent && part.settings.same_results_as(&all.settings)?,
+                    "--merge: {} was run with another course, speeds, minutes, modes or evaluation settings \
+                     (timestep, integrator, settle time, seed); merge like runs only",
                     f.display()
                 );
                 for r in part.results {

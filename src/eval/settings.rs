@@ -62,6 +62,17 @@ impl EvalSettings {
     }
 
     /// The physics timestep the experiments run at.
+    /// Whether results made with `other` are comparable with results made with these: every setting but the thread
+    /// count (results do not depend on it).
+    pub fn same_results_as(&self, other: &EvalSettings) -> Result<bool> {
+        let comparable = |s: &EvalSettings| -> Result<serde_json::Value> {
+            let mut v = serde_json::to_value(s)?;
+            v.as_object_mut().map(|o| o.remove("threads"));
+            Ok(v)
+        };
+        Ok(comparable(self)? == comparable(other)?)
+    }
+
     pub fn timestep(&self) -> f64 {
         self.timestep.unwrap_or(if self.sim2sim.timestep > 0.0 { self.sim2sim.timestep } else { 0.0025 })
     }

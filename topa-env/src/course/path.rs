@@ -77,11 +77,7 @@ impl Path {
             if s1 < s0 {
                 continue;
             }
-            let (a, b) = (self.at(s0).xy, self.at(s1).xy);
-            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-            let l2 = dx * dx + dy * dy;
-            let u = if l2 > 0.0 { (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0) } else { 0.0 };
-            let q = [a[0] + u * dx, a[1] + u * dy];
+            let (u, q) = closest_on_segment(p, self.at(s0).xy, self.at(s1).xy);
             let d = dist(p, q);
             if d < best.1 {
                 best = (PathPoint { s: s0 + u * (s1 - s0), xy: q, heading: self.heading_of(i) }, d);
@@ -116,10 +112,15 @@ pub fn segment_distance(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> f
 }
 
 pub fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    dist(p, closest_on_segment(p, a, b).1)
+}
+
+/// The point of segment [a, b] nearest to `p`, and where it is along the segment (0 at a, 1 at b).
+fn closest_on_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> (f64, [f64; 2]) {
     let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
     let l2 = dx * dx + dy * dy;
     let u = if l2 > 0.0 { (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0) } else { 0.0 };
-    dist(p, [a[0] + u * dx, a[1] + u * dy])
+    (u, [a[0] + u * dx, a[1] + u * dy])
 }
 
 fn cross(o: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
