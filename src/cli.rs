@@ -64,8 +64,9 @@ pub enum Cmd {
         #[arg(long)]
         tracking_starts: Option<usize>,
         /// Instead of running policies: join the ablation.json files of earlier runs (same protocol and settings;
-        /// e.g. one per policy, run as each training ended) into one report with the groups' mean ± sd.
-        #[arg(long, num_args = 2.., conflicts_with_all = ["o", "c", "ca", "full", "push_range", "push_step", "tracking_starts"])]
+        /// e.g. one per policy, run as each training ended) into one report with the groups' mean ± sd; one file
+        /// renders that report again (with --field: the real-world test attached).
+        #[arg(long, num_args = 1.., conflicts_with_all = ["o", "c", "ca", "full", "push_range", "push_step", "tracking_starts"])]
         merge: Vec<PathBuf>,
         /// Add the real-world test of these policies (a field.json written by `topa field`) to the report.
         #[arg(long)]

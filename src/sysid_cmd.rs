@@ -6,7 +6,12 @@ use std::sync::Arc;
 use anyhow::{Context, Result};
 use clap::Subcommand;
 
+use crate::sysid::bench::{windows, Bench, Params};
 use crate::sysid::excite::{self, CommandKind, Design, Shape};
+use crate::sysid::fit::{FitOptions, Kind};
+use crate::sysid::identify::{self, Identification, Plan};
+use crate::sysid::log::MotorLog;
+use crate::sysid::synthetic::{self, SensorModel};
 
 #[derive(Subcommand)]
 pub enum SysidCmd {
@@ -43,6 +48,80 @@ pub enum SysidCmd {
         seed: u64,
         /// The CSV to write (the spectrum goes beside it as *_spectrum.png).
         #[arg(long, default_value = "out/sysid/excite.csv")]
+        out: PathBuf,
+    },
+    /// Play an excitation through a bench with hidden parameters and write the log its sensors would record (and
+    /// the hidden values beside it, *_truth.json): a bench that does not exist, to rehearse or prove a fit.
+    Simulate {
+        /// The bench MJCF.
+        #[arg(long, default_value = "assets/mjcf/benches/topa_motors.xml")]
+        bench: PathBuf,
+        /// The excitation CSV (`topa sysid excite`); position targets go through the bench actuators' PD gains.
+        #[arg(long)]
+        excitation: PathBuf,
+        /// Seed of the hidden parameters: each motor's armature, damping, dry friction and torque constant off the
+        /// bench's by 30–50 % either way, and a delay of 1–5 ms.
+        #[arg(long, default_value_t = 7)]
+        hidden_seed: u64,
+        /// Encoder counts per output revolution (the realistic sim2sim's: 16384; 0: exact).
+        #[arg(long, default_value_t = 16384.0)]
+        counts_per_rev: f64,
+        /// White position noise, rad.
+        #[arg(long, default_value_t = 2e-4)]
+        position_noise: f64,
+        /// Seed of the sensor noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// The log CSV to write.
+        #[arg(long, default_value = "out/sysid/log.csv")]
+        out: PathBuf,
+    },
+    /// Identify the motors' armature, damping, dry friction, torque constant and command delay from a log: MuJoCo
+    /// replays the logged commands and Levenberg–Marquardt matches the logged positions.
+    Fit {
+        /// The bench MJCF (every joint a logged motor; docs/sysid.md).
+        #[arg(long, default_value = "assets/mjcf/benches/topa_motors.xml")]
+        bench: PathBuf,
+        /// The log CSV (docs/sysid.md).
+        #[arg(long)]
+        log: PathBuf,
+        /// A second log to hold out (default: the last --held-out share of --log).
+        #[arg(long)]
+        held_out_log: Option<PathBuf>,
+        /// Share of the log held out when no --held-out-log is given.
+        #[arg(long, default_value_t = 0.2)]
+        held_out: f64,
+        /// Parameters to fit.
+        #[arg(
+            long,
+            value_enum,
+            value_delimiter = ',',
+            default_value = "armature,damping,frictionloss,torque-constant,delay"
+        )]
+        fit: Vec<Kind>,
+        /// Window length, s: each window starts from the logged state (multiple shooting). Default: 5 s when every
+        /// motor runs its PD loop (errors die out), 0.5 s for torque or current commands (open loop drifts).
+        #[arg(long)]
+        window: Option<f64>,
+        /// Seconds after each window's start left out of the comparison (default: 0.1 s under PD loops, else 0).
+        #[arg(long)]
+        burn_in: Option<f64>,
+        /// Upper bound of the delay, s.
+        #[arg(long, default_value_t = 0.02)]
+        max_delay: f64,
+        /// Box of each parameter: [0, range × the bench's value] (torque constant: [1/range, range] × its start).
+        #[arg(long, default_value_t = 5.0)]
+        range: f64,
+        /// Start value of the torque constant (N·m/A for current logs; a ratio otherwise).
+        #[arg(long, default_value_t = 1.0)]
+        torque_constant: f64,
+        #[arg(long, default_value_t = 3000)]
+        max_evaluations: usize,
+        /// Hidden true values (a *_truth.json of `topa sysid simulate`): report each fitted value's error.
+        #[arg(long)]
+        truth: Option<PathBuf>,
+        /// Output folder (identified.json, identified.md, fit.png, <bench>_identified.xml).
+        #[arg(long, default_value = "out/sysid/fit")]
         out: PathBuf,
     },
 }
@@ -111,6 +190,125 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
                 png.display()
             );
         }
+        SysidCmd::Simulate { bench, excitation, hidden_seed, counts_per_rev, position_noise, seed, out } => {
+            let mut exc = synthetic::read_excitation(&excitation)?;
+            let b = Bench::load(&bench, &exc)?;
+            synthetic::drive_gains_from_model(&b, &mut exc);
+            let truth = synthetic::hidden(&b.nominal(), hidden_seed);
+            let sensors = SensorModel { counts_per_rev, position_noise, seed };
+            let log = synthetic::record(&b, &exc, &truth, &sensors)?;
+            let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+            let name = out.file_name().context("--out names a file")?.to_string_lossy().into_owned();
+            crate::eval::report::write_text(dir, &name, &log.to_csv())?;
+            let stem = out.file_stem().map_or("log".into(), |s| s.to_string_lossy().into_owned());
+            crate::eval::report::write_json(dir, &format!("{stem}_truth.json"), &truth)?;
+            println!(
+                "{}: {} motors × {} samples; hidden values in {}/{stem}_truth.json; sensor noise floor {:.2e} rad",
+                out.display(),
+                log.motors.len(),
+                log.time.len(),
+                dir.display(),
+                sensors.floor()
+            );
+        }
+        SysidCmd::Fit {
+            bench,
+            log,
+            held_out_log,
+            held_out,
+            fit,
+            window,
+            burn_in,
+            max_delay,
+            range,
+            torque_constant,
+            max_evaluations,
+            truth,
+            out,
+        } => {
+            let data = MotorLog::read(&log)?;
+            let mut b = Bench::load(&bench, &data)?;
+            let closed_loop =
+                data.motors.iter().all(|m| matches!(m.command, crate::sysid::log::Command::Position { .. }));
+            let window = window.unwrap_or(if closed_loop { 5.0 } else { 0.5 });
+            let burn_in = burn_in.unwrap_or(if closed_loop { 0.1 } else { 0.0 });
+            b.burn_in = (burn_in / data.step()).round() as usize;
+            let held = held_out_log.as_deref().map(MotorLog::read).transpose()?;
+            if let Some(h) = &held {
+                let names = |l: &MotorLog| l.motors.iter().map(|m| m.name.clone()).collect::<Vec<_>>();
+                anyhow::ensure!(
+                    names(h) == names(&data),
+                    "--held-out-log has other motors ({}) than --log ({})",
+                    names(h).join(", "),
+                    names(&data).join(", ")
+                );
+            }
+            let mut start = b.nominal();
+            start.motors.iter_mut().for_each(|m| m.torque_constant = torque_constant);
+            let truth: Option<Params> = truth
+                .map(|f| -> Result<Params> {
+                    let text = std::fs::read_to_string(&f).with_context(|| format!("--truth {}", f.display()))?;
+                    let p: Params = serde_json::from_str(&text).with_context(|| {
+                        format!("--truth {} is not a *_truth.json of `topa sysid simulate`", f.display())
+                    })?;
+                    anyhow::ensure!(
+                        p.motors.len() == b.motors.len(),
+                        "--truth {} has {} motors, the log {}",
+                        f.display(),
+                        p.motors.len(),
+                        b.motors.len()
+                    );
+                    Ok(p)
+                })
+                .transpose()?;
+            let plan = Plan {
+                bench: &b,
+                log: &data,
+                log_path: &log,
+                held_out: held.as_ref(),
+                held_out_fraction: if held.is_some() { 0.0 } else { held_out },
+                window_s: window,
+                burn_in_s: burn_in,
+                options: FitOptions { kinds: fit, window: 0, max_delay, range, max_evaluations },
+                start: start.clone(),
+                truth,
+            };
+            let id = identify::identify(&plan)?;
+            write_identification(&id, &b, &data, held.as_ref(), &start, &bench, &out)?;
+        }
     }
+    Ok(())
+}
+
+fn write_identification(
+    id: &Identification,
+    b: &Bench,
+    log: &MotorLog,
+    held: Option<&MotorLog>,
+    start: &Params,
+    bench: &std::path::Path,
+    out: &std::path::Path,
+) -> Result<()> {
+    let md = identify::markdown(id);
+    crate::eval::report::write_json(out, "identified.json", id)?;
+    crate::eval::report::write_text(out, "identified.md", &md)?;
+    // The plot: the first 2 s held out.
+    let (plot_log, from) = match held {
+        Some(h) => (h, 0),
+        None => (log, (id.fitted_s / log.step()).round() as usize),
+    };
+    let span = windows(from, (from + (2.0 / log.step()) as usize).min(plot_log.time.len()), usize::MAX / 2)[0];
+    identify::plot(b, plot_log, span, start, &id.fit.params, &out.join("fit.png"))?;
+    let stem = bench.file_stem().map_or("bench".into(), |s| s.to_string_lossy().into_owned());
+    let xml = out.join(format!("{stem}_identified.xml"));
+    identify::write_patched_mjcf(bench, &id.fit.params, &id.motors, &xml)?;
+    println!("{md}");
+    if !id.fit.converged {
+        eprintln!(
+            "warning: the fit did not converge ({}); its best values are above, with their intervals",
+            id.fit.termination
+        );
+    }
+    println!("results: {} (identified.json, identified.md, fit.png, {})", out.display(), xml.display());
     Ok(())
 }

@@ -86,6 +86,11 @@ int mjs_load_xml(const char* filename, const mjVFS* vfs, mjModel** out, char* er
   GUARDED(*out = mj_loadXML(filename, vfs, err, errlen))
 }
 
+// The MJCF of the last model loaded from XML with m's values copied back (mj_saveLastXML); *ok is its result.
+int mjs_save_last_xml(const char* filename, const mjModel* m, int* ok, char* err, int errlen) {
+  GUARDED(*ok = mj_saveLastXML(filename, m, err, errlen))
+}
+
 // Positions and velocities of every body, geom and site for the current qpos/qvel, without forces or contacts
 // (what a robot's own kinematics computes from its encoders).
 int mjs_kinematics(const mjModel* m, mjData* d, char* err, int errlen) {

@@ -57,6 +57,13 @@ extern "C" {
         len: c_int,
     ) -> c_int;
     pub(crate) fn mjs_copy_model(out: *mut *mut mjModel, src: *const mjModel, err: *mut c_char, len: c_int) -> c_int;
+    pub(crate) fn mjs_save_last_xml(
+        filename: *const c_char,
+        m: *const mjModel,
+        ok: *mut c_int,
+        err: *mut c_char,
+        len: c_int,
+    ) -> c_int;
     pub(crate) fn mjs_load_xml(
         filename: *const c_char,
         vfs: *const mjVFS,

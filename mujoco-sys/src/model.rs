@@ -57,6 +57,34 @@ impl Model {
         load(&c, Some(&vfs), "<xml string>")
     }
 
+    /// Writes an MJCF of this model (MuJoCo's `mj_saveLastXML`): the document this process last loaded from an XML
+    /// file, flattened, with this model's numeric values (joint armature, damping and frictionloss, actuator gains,
+    /// masses, …) copied back. So `self` must be a copy of the model loaded last — load the file, change the values,
+    /// save. Written to a temporary file beside `path`, then renamed.
+    pub fn save_last_xml(&self, path: &Path) -> Result<()> {
+        let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+        let c = path_cstring(&tmp)?;
+        let mut ok: std::os::raw::c_int = 0;
+        let mut message = String::new();
+        guarded("mj_saveLastXML", |e, n| {
+            // SAFETY: valid model and NUL-terminated name; MuJoCo writes at most `n` bytes of error into `e`.
+            let r = unsafe { guard::mjs_save_last_xml(c.as_ptr(), self.raw(), &mut ok, e, n) };
+            if r == 0 && ok == 0 {
+                // SAFETY: MuJoCo NUL-terminated its message within the buffer.
+                message = guard::c_buf_to_string(unsafe { std::slice::from_raw_parts(e, n as usize) });
+            }
+            r
+        })?;
+        if ok == 0 {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(MujocoError::Fatal { call: "mj_saveLastXML", message });
+        }
+        std::fs::rename(&tmp, path)
+            .map_err(|e| MujocoError::Fatal { call: "rename", message: format!("{}: {e}", path.display()) })
+    }
+
     /// A deep copy, or an error if MuJoCo cannot make one.
     pub fn try_clone(&self) -> Result<Self> {
         let mut out: *mut mjModel = std::ptr::null_mut();

@@ -124,7 +124,8 @@ write_arrays! {
     geom_rgba / geom_rgba_mut: [f32; 4], ngeom;
     /// Sliding, torsional, rolling friction per geom.
     geom_friction / geom_friction_mut: [f64; 3], ngeom;
-    /// Rotor inertia reflected to the joint (kg·m²).
+    /// Rotor inertia reflected to the joint (kg·m²). MuJoCo 2.2 reads it into the mass matrix through a value that
+    /// `Data::set_const` computes: call it after a change, or the change has no effect.
     dof_armature / dof_armature_mut: f64, nv;
     /// Viscous friction (N·m·s/rad).
     dof_damping / dof_damping_mut: f64, nv;

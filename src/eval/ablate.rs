@@ -129,11 +129,12 @@ pub fn run(policies: &[(Group, PathBuf)], settings: &EvalSettings, extent: &Exte
 }
 
 /// Joins ablations written by earlier runs (`ablation.json`: one per policy, per machine or per session — each
-/// policy's numbers do not depend on the others, its noise streams come from the seed alone) into one. Refused
+/// policy's numbers do not depend on the others, its noise streams come from the seed alone) into one; one file is
+/// rendered again (to attach a field test to it). Refused
 /// when a file is not an ablation, when the protocols or evaluation settings differ (thread count aside: results do
 /// not depend on it), or when one policy file appears twice (it would count as two seeds).
 pub fn merge(files: &[PathBuf]) -> Result<Ablation> {
-    ensure!(files.len() >= 2, "--merge takes at least two ablation.json files");
+    ensure!(!files.is_empty(), "--merge takes one or more ablation.json files");
     let mut parts = Vec::new();
     for f in files {
         let text = std::fs::read_to_string(f).with_context(|| format!("--merge: cannot read {}", f.display()))?;

@@ -80,7 +80,8 @@ pub fn run(policies: &[(Group, PathBuf)], base: &EvalSettings, extent: &FieldExt
     Ok(Field { extent: extent.clone(), settings: base.clone(), results })
 }
 
-/// Joins field.json files of earlier runs (same extent and settings, each policy once).
+/// Joins field.json files of earlier runs: one per policy, per mode or both (same course, speeds, minutes,
+/// operator and settings). A policy's modes from several files are joined; a (policy, mode) pair twice is refused.
 pub fn merge(files: &[PathBuf]) -> Result<Field> {
     ensure!(files.len() >= 2, "--merge takes at least two field.json files");
     let mut out: Option<Field> = None;
@@ -88,27 +89,51 @@ pub fn merge(files: &[PathBuf]) -> Result<Field> {
         let text = std::fs::read_to_string(f).with_context(|| format!("--merge: cannot read {}", f.display()))?;
         let part: Field = serde_json::from_str(&text)
             .with_context(|| format!("--merge: {} is not a field.json written by `topa field`", f.display()))?;
-        match &mut out {
-            None => out = Some(part),
-            Some(all) => {
-                ensure!(
-                    part.extent == all.extent && part.settings.same_results_as(&all.settings)?,
-                    "--merge: {} was run with another course, speeds, minutes, modes or evaluation settings \
-                     (timestep, integrator, settle time, seed); merge like runs only",
-                    f.display()
-                );
-                for r in part.results {
-                    ensure!(
-                        !all.results.iter().any(|q| q.policy == r.policy),
-                        "--merge: policy {} is in more than one file; it would count as two seeds",
-                        r.policy.display()
-                    );
-                    all.results.push(r);
+        let Some(all) = &mut out else {
+            out = Some(part);
+            continue;
+        };
+        let modeless = |e: &FieldExtent| FieldExtent { modes: Vec::new(), ..e.clone() };
+        ensure!(
+            modeless(&part.extent) == modeless(&all.extent) && part.settings.same_results_as(&all.settings)?,
+            "--merge: {} was run with another course, speeds, minutes or evaluation settings (timestep, \
+             integrator, settle time, seed); merge like runs only",
+            f.display()
+        );
+        for mode in &part.extent.modes {
+            if !all.extent.modes.contains(mode) {
+                all.extent.modes.push(mode.clone());
+            }
+        }
+        for r in part.results {
+            match all.results.iter_mut().find(|q| q.policy == r.policy) {
+                None => all.results.push(r),
+                Some(q) => {
+                    ensure!(q.name == r.name, "--merge: {} is in two groups", r.policy.display());
+                    for m in r.modes {
+                        ensure!(
+                            !q.modes.iter().any(|x| x.sim2sim == m.sim2sim),
+                            "--merge: policy {} in {} sim2sim is in more than one file; it would count as two seeds",
+                            r.policy.display(),
+                            m.sim2sim
+                        );
+                        q.modes.push(m);
+                    }
                 }
             }
         }
     }
     let mut all = out.unwrap();
+    // Ideal before realistic before files, whatever order the parts came in.
+    let rank = |m: &Sim2SimMode| match m {
+        Sim2SimMode::Ideal => 0,
+        Sim2SimMode::Realistic => 1,
+        Sim2SimMode::File(_) => 2,
+    };
+    all.extent.modes.sort_by_key(rank);
+    for r in &mut all.results {
+        r.modes.sort_by_key(|m| rank(&m.sim2sim));
+    }
     all.results.sort_by_key(|r| r.name);
     Ok(all)
 }
@@ -373,7 +398,17 @@ mod tests {
         let m = merge(&[a.clone(), b.clone()]).unwrap();
         assert_eq!(m.results.iter().map(|r| r.name).collect::<Vec<_>>(), [Group::O, Group::C]);
         let err = format!("{:#}", merge(&[a.clone(), a.clone()]).unwrap_err());
-        assert!(err.contains("c1 is in more than one file"), "{err}");
+        assert!(err.contains("c1 in ideal sim2sim is in more than one file"), "{err}");
+        // The same policy in another mode joins its modes: ideal first, whatever the order of the files.
+        let mut realistic = field(vec![policy(Group::C, "c1", vec![run(0.7, true, 170.0, 0, 0.0)], 1)]);
+        realistic.extent.modes = vec![Sim2SimMode::Realistic];
+        realistic.results[0].modes[0].sim2sim = Sim2SimMode::Realistic;
+        let r = write("r.json", &realistic);
+        let m = merge(&[r, a.clone(), b.clone()]).unwrap();
+        assert_eq!(m.extent.modes, [Sim2SimMode::Ideal, Sim2SimMode::Realistic]);
+        let c1 = m.results.iter().find(|p| p.name == Group::C).unwrap();
+        assert_eq!(c1.modes.iter().map(|x| x.sim2sim.clone()).collect::<Vec<_>>(), m.extent.modes);
+        assert_eq!(c1.modes[1].endurance.interventions, 1);
         let mut other = field(vec![policy(Group::CA, "ca1", vec![], 0)]);
         other.extent.endurance_minutes = 10.0;
         let o = write("o.json", &other);

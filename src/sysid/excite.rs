@@ -31,6 +31,13 @@ pub enum CommandKind {
 }
 
 impl CommandKind {
+    /// The log column's quantity (`<motor>:<quantity>`).
+    pub fn column(self) -> &'static str {
+        match self {
+            CommandKind::Position => "target",
+            CommandKind::Torque => "torque",
+        }
+    }
     pub fn unit(self) -> &'static str {
         match self {
             CommandKind::Position => "rad",
@@ -148,8 +155,8 @@ fn fade(t: f64, end: f64, f: f64) -> f64 {
     }
 }
 
-/// The trajectory as CSV: a header naming what is commanded, then `time` and one `<motor>:target` column per motor
-/// (offset + signal).
+/// The trajectory as CSV: a header naming what is commanded, then `time` and one `<motor>:target` (position) or
+/// `<motor>:torque` column per motor (offset + signal): the command columns of the log `topa sysid fit` reads.
 pub fn csv(d: &Design, kind: CommandKind, motors: &[(String, f64)]) -> String {
     let mut s = format!(
         "# topa sysid excite: {} {}, amplitude {} {}, band {}–{} Hz, {} s at {} Hz, seed {}\n",
@@ -165,7 +172,7 @@ pub fn csv(d: &Design, kind: CommandKind, motors: &[(String, f64)]) -> String {
     );
     s.push_str("time");
     for (name, _) in motors {
-        let _ = write!(s, ",{name}:target");
+        let _ = write!(s, ",{name}:{}", kind.column());
     }
     s.push('\n');
     let signals: Vec<Vec<f64>> = (0..motors.len()).map(|m| d.signal(m)).collect();
