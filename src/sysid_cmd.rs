@@ -268,7 +268,6 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
                 held_out: held.as_ref(),
                 held_out_fraction: if held.is_some() { 0.0 } else { held_out },
                 window_s: window,
-                burn_in_s: burn_in,
                 options: FitOptions { kinds: fit, window: 0, max_delay, range, max_evaluations },
                 start: start.clone(),
                 truth,

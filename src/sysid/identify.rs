@@ -62,7 +62,6 @@ pub struct Plan<'a> {
     pub held_out: Option<&'a MotorLog>,
     pub held_out_fraction: f64,
     pub window_s: f64,
-    pub burn_in_s: f64,
     pub options: FitOptions,
     pub start: Params,
     pub truth: Option<Params>,
@@ -71,12 +70,8 @@ pub struct Plan<'a> {
 pub fn identify(plan: &Plan) -> Result<Identification> {
     let t0 = std::time::Instant::now();
     let (log, n) = (plan.log, plan.log.time.len());
-    ensure!(
-        plan.window_s > plan.burn_in_s,
-        "--window {} s must be longer than the burn-in {} s",
-        plan.window_s,
-        plan.burn_in_s
-    );
+    let burn_in_s = plan.bench.burn_in as f64 * log.step();
+    ensure!(plan.window_s > burn_in_s, "--window {} s must be longer than the burn-in {burn_in_s} s", plan.window_s);
     let step = log.step();
     let per_window = ((plan.window_s / step).round() as usize).max(3);
     ensure!((0.0..0.9).contains(&plan.held_out_fraction), "--held-out {} must be in [0, 0.9)", plan.held_out_fraction);
@@ -125,7 +120,7 @@ pub fn identify(plan: &Plan) -> Result<Identification> {
         fitted_s: split as f64 * step,
         held_out_s: held.iter().map(|(a, b)| b - a).sum::<usize>() as f64 * step,
         window_s: per_window as f64 * step,
-        burn_in_s: plan.burn_in_s,
+        burn_in_s,
         fit: result,
         held_out_rmse_start,
         held_out_rmse,
