@@ -56,6 +56,9 @@ pub enum SysidCmd {
         /// The bench MJCF.
         #[arg(long, default_value = "assets/mjcf/benches/topa_motors.xml")]
         bench: PathBuf,
+        /// Instead of a bench: this robot spec hung in the air (base fixed, contacts off, loops closed).
+        #[arg(long, conflicts_with = "bench")]
+        robot: Option<PathBuf>,
         /// The excitation CSV (`topa sysid excite`); position targets go through the bench actuators' PD gains.
         #[arg(long)]
         excitation: PathBuf,
@@ -82,6 +85,10 @@ pub enum SysidCmd {
         /// The bench MJCF (every joint a logged motor; docs/sysid.md).
         #[arg(long, default_value = "assets/mjcf/benches/topa_motors.xml")]
         bench: PathBuf,
+        /// Instead of a bench: this robot spec hung in the air (base fixed, contacts off, loops closed); the log
+        /// holds all its motors.
+        #[arg(long, conflicts_with = "bench")]
+        robot: Option<PathBuf>,
         /// The log CSV (docs/sysid.md).
         #[arg(long)]
         log: PathBuf,
@@ -190,9 +197,9 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
                 png.display()
             );
         }
-        SysidCmd::Simulate { bench, excitation, hidden_seed, counts_per_rev, position_noise, seed, out } => {
+        SysidCmd::Simulate { bench, robot, excitation, hidden_seed, counts_per_rev, position_noise, seed, out } => {
             let mut exc = synthetic::read_excitation(&excitation)?;
-            let b = Bench::load(&bench, &exc)?;
+            let b = load_bench(&bench, robot.as_deref(), &exc)?.0;
             synthetic::drive_gains_from_model(&b, &mut exc);
             let truth = synthetic::hidden(&b.nominal(), hidden_seed);
             let sensors = SensorModel { counts_per_rev, position_noise, seed };
@@ -213,6 +220,7 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
         }
         SysidCmd::Fit {
             bench,
+            robot,
             log,
             held_out_log,
             held_out,
@@ -227,7 +235,7 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
             out,
         } => {
             let data = MotorLog::read(&log)?;
-            let mut b = Bench::load(&bench, &data)?;
+            let (mut b, mjcf) = load_bench(&bench, robot.as_deref(), &data)?;
             let closed_loop =
                 data.motors.iter().all(|m| matches!(m.command, crate::sysid::log::Command::Position { .. }));
             let window = window.unwrap_or(if closed_loop { 5.0 } else { 0.5 });
@@ -273,10 +281,23 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
                 truth,
             };
             let id = identify::identify(&plan)?;
-            write_identification(&id, &b, &data, held.as_ref(), &start, &bench, &out)?;
+            write_identification(&id, &b, &data, held.as_ref(), &start, &mjcf, &out)?;
         }
     }
     Ok(())
+}
+
+/// The bench, or the robot hung in the air; and the MJCF an identified copy is made of.
+fn load_bench(bench: &std::path::Path, robot: Option<&std::path::Path>, log: &MotorLog) -> Result<(Bench, PathBuf)> {
+    Ok(match robot {
+        None => (Bench::load(bench, log)?, bench.to_path_buf()),
+        Some(r) => {
+            let spec = topa_env::assets::robot_path(&r.to_string_lossy());
+            let b = crate::sysid::robot::hung_bench(&spec, log)?;
+            let mjcf = topa_env::spec::RobotSpec::load(&spec)?.0.mjcf;
+            (b, mjcf)
+        }
+    })
 }
 
 fn write_identification(

@@ -221,6 +221,14 @@ impl Model {
         self.raw().opt.disableflags & ffi::mjDSBL_SENSOR as i32 == 0
     }
 
+    /// Turns contacts on or off (off: a robot hung in the air, whose feet must touch nothing).
+    pub fn set_contacts_enabled(&mut self, on: bool) {
+        let bit = ffi::mjDSBL_CONTACT as i32;
+        // SAFETY: a parameter value, not a size.
+        let flags = unsafe { &mut self.raw_mut().opt.disableflags };
+        *flags = if on { *flags & !bit } else { *flags | bit };
+    }
+
     /// Turns sensor evaluation on or off. Off skips work the dynamics never reads (the accelerometer alone needs a
     /// second recursive Newton–Euler pass every step); `sensordata` then keeps stale values.
     pub fn set_sensors_enabled(&mut self, on: bool) {

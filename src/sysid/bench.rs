@@ -47,13 +47,19 @@ pub struct BenchMotor {
     pub qpos: usize,
 }
 
+/// The whole qpos of a bench for its logged motor positions (log order): how a window of a bench with unlogged
+/// joints (a robot's closed loops) starts.
+pub type StartPose = Box<dyn Fn(&[f64]) -> Result<Vec<f64>> + Send + Sync>;
+
 pub struct Bench {
     pub path: PathBuf,
     model: Arc<Model>,
     pub motors: Vec<BenchMotor>,
-    /// Each motor moves a kinematic tree of its own (no coupling): one perturbed rollout gives a column of the
-    /// Jacobian for every motor at once.
-    pub independent: bool,
+    /// Each motor's dynamically coupled group (a kinematic tree below a fixed body, joined with any tree an
+    /// equality constraint ties it to). Motors of different trees do not feel each other's parameters, so one
+    /// perturbed rollout gives a Jacobian column for one motor of every tree.
+    pub tree: Vec<usize>,
+    start_pose: Option<StartPose>,
     /// Physics steps per log sample.
     substeps: usize,
     /// Samples after each window's start left out of the comparison: under a PD loop the error of the logged
@@ -73,6 +79,12 @@ impl Bench {
     pub fn load(path: &Path, log: &MotorLog) -> Result<Bench> {
         let model = Model::from_xml_path(path)
             .with_context(|| format!("bench MJCF {} (docs/sysid.md describes the format)", path.display()))?;
+        let motors = Self::motors_of(&model, path, log)?;
+        Self::from_model(model, path, motors, log, None)
+    }
+
+    /// The log's motors on the model's actuators (by name), each driving a hinge.
+    pub fn motors_of(model: &Model, path: &Path, log: &MotorLog) -> Result<Vec<BenchMotor>> {
         let actuators = model.names(ObjType::Actuator);
         let mut motors = Vec::new();
         for m in &log.motors {
@@ -105,17 +117,37 @@ impl Bench {
                 qpos: model.jnt_qposadr_of(joint),
             });
         }
-        // Each window starts from the logged state, so the log must hold the whole state.
-        ensure!(
-            model.nv() == motors.len() && model.nq() == motors.len(),
-            "{} has {} degrees of freedom and the log {} motors: every joint of a bench must be a logged motor (a \
-             window starts from the logged state)",
-            path.display(),
-            model.nv(),
-            motors.len()
-        );
-        let roots: Vec<i32> = motors.iter().map(|m| model.body_rootid()[model.dof_bodyid()[m.dof] as usize]).collect();
-        let independent = model.neq() == 0 && (1..roots.len()).all(|i| !roots[..i].contains(&roots[i]));
+        for a in 0..model.nu() {
+            let name = model.name_of(ObjType::Actuator, a).unwrap_or("");
+            ensure!(
+                log.motors.iter().any(|m| m.name == name),
+                "actuator {name} of {} has no columns in the log: log every motor of the bench",
+                path.display()
+            );
+        }
+        Ok(motors)
+    }
+
+    /// A bench on an already compiled model. Without `start_pose`, every joint must be a logged motor (a window
+    /// starts from the logged state); with it, the unlogged joints start where it puts them, at rest.
+    pub fn from_model(
+        model: Model,
+        path: &Path,
+        motors: Vec<BenchMotor>,
+        log: &MotorLog,
+        start_pose: Option<StartPose>,
+    ) -> Result<Bench> {
+        if start_pose.is_none() {
+            ensure!(
+                model.nv() == motors.len() && model.nq() == motors.len(),
+                "{} has {} degrees of freedom and the log {} motors: every joint of a bench must be a logged motor \
+                 (a window starts from the logged state)",
+                path.display(),
+                model.nv(),
+                motors.len()
+            );
+        }
+        let tree = trees(&model, &motors);
         let (step, dt) = (log.step(), model.timestep());
         let substeps = (step / dt).round().max(1.0) as usize;
         ensure!(
@@ -124,7 +156,7 @@ impl Bench {
              <option timestep> in {} to divide it",
             path.display()
         );
-        Ok(Bench { path: path.to_path_buf(), model: Arc::new(model), motors, independent, substeps, burn_in: 0 })
+        Ok(Bench { path: path.to_path_buf(), model: Arc::new(model), motors, tree, start_pose, substeps, burn_in: 0 })
     }
 
     pub fn timestep(&self) -> f64 {
@@ -184,6 +216,10 @@ impl Bench {
         let mut history: Vec<Vec<f64>> = vec![Vec::new(); n];
         for &(start, end) in windows {
             data.reset()?;
+            if let Some(pose) = &self.start_pose {
+                let q: Vec<f64> = log.motors.iter().map(|m| m.position[start]).collect();
+                data.qpos_mut().copy_from_slice(&pose(&q)?);
+            }
             for (m, b) in self.motors.iter().enumerate() {
                 data.qpos_mut()[b.qpos] = log.motors[m].position[start];
                 data.qvel_mut()[b.dof] = self.initial_velocity(log, m, start);
@@ -235,6 +271,36 @@ impl Bench {
         }
         out
     }
+}
+
+/// Each motor's coupled group: the topmost moving body above its joint, groups joined by equality constraints.
+fn trees(model: &Model, motors: &[BenchMotor]) -> Vec<usize> {
+    let parent = model.body_parentid();
+    let top = |mut b: usize| {
+        let mut moving = b;
+        while b != 0 {
+            if model.body_jntnum()[b] > 0 {
+                moving = b;
+            }
+            b = parent[b] as usize;
+        }
+        moving
+    };
+    let mut group: Vec<usize> = (0..model.nbody()).map(top).collect();
+    for e in 0..model.neq() {
+        let body = |id: i32| -> usize {
+            if model.eq_type()[e] == mujoco_sys::ffi::mjEQ_JOINT as i32 {
+                model.jnt_bodyid()[id as usize] as usize
+            } else {
+                id as usize
+            }
+        };
+        let (a, b) = (group[body(model.eq_obj1id()[e])], group[body(model.eq_obj2id()[e])]);
+        if a != b {
+            group.iter_mut().filter(|g| **g == b).for_each(|g| *g = a);
+        }
+    }
+    motors.iter().map(|m| group[model.dof_bodyid()[m.dof] as usize]).collect()
 }
 
 /// Consecutive windows of `len` samples over `[from, to)` (the last one may be shorter, never under 3 samples).
@@ -340,7 +406,9 @@ mod tests {
         assert!(end(&h) < 0.9 * end(&base), "armature ×3: {} vs {}", end(&h), end(&base));
         // The other motor does not feel it (its own tree).
         assert_eq!(h[h.len() - 1], base[base.len() - 1]);
-        assert!(bench.independent);
+        let mut trees = bench.tree.clone();
+        trees.dedup();
+        assert_eq!(trees.len(), MOTORS.len(), "every pendulum is its own tree");
         let mut stronger = p.clone();
         stronger.motors[0].torque_constant = 2.0;
         assert!(end(&bench.simulate(&stronger, &log, &w).unwrap()) > 1.5 * end(&base));

@@ -155,8 +155,9 @@ impl Problem<'_> {
         Some(sim.iter().zip(&self.measured).map(|(s, m)| s - m).collect())
     }
 
-    /// ∂r/∂θ by forward differences, the perturbed rollouts in parallel. When the motors are independent, one
-    /// rollout perturbs one kind of parameter on every motor at once and each motor's rows give its own column.
+    /// ∂r/∂θ by forward differences, the perturbed rollouts in parallel. Motors of different trees are
+    /// independent: one rollout perturbs one kind of parameter on one motor of each tree, and each tree's rows
+    /// give its motor's column.
     fn jacobian_theta(&self, theta: &[f64], r0: &[f64]) -> Option<DMatrix<f64>> {
         let n_motors = self.bench.motors.len();
         let step = |j: usize| {
@@ -169,20 +170,21 @@ impl Problem<'_> {
                 h
             }
         };
-        let groups: Vec<Vec<usize>> = if self.bench.independent {
-            let mut g: Vec<Vec<usize>> = Vec::new();
-            for kind in Kind::ALL {
-                let cols: Vec<usize> = (0..self.free.len()).filter(|&j| self.free[j].kind == kind).collect();
-                if kind == Kind::Delay {
-                    g.extend(cols.into_iter().map(|j| vec![j]));
-                } else if !cols.is_empty() {
-                    g.push(cols);
+        // One rollout per (kind, slot): the slot-th motor of every tree moves that kind of parameter at once.
+        let tree = &self.bench.tree;
+        let slot = |m: usize| tree[..m].iter().filter(|&&t| t == tree[m]).count();
+        let mut groups: Vec<Vec<usize>> = Vec::new();
+        let mut keys: Vec<(Kind, usize)> = Vec::new();
+        for (j, f) in self.free.iter().enumerate() {
+            let key = (f.kind, if f.kind == Kind::Delay { usize::MAX } else { slot(f.motor) });
+            match keys.iter().position(|k| *k == key) {
+                Some(g) => groups[g].push(j),
+                None => {
+                    keys.push(key);
+                    groups.push(vec![j]);
                 }
             }
-            g
-        } else {
-            (0..self.free.len()).map(|j| vec![j]).collect()
-        };
+        }
         let rollouts: Vec<Option<Vec<f64>>> = groups
             .par_iter()
             .map(|cols| {
@@ -199,7 +201,7 @@ impl Problem<'_> {
                 let f = &self.free[j];
                 let shared = cols.len() == 1 || f.kind == Kind::Delay;
                 for (row, (a, b)) in r.iter().zip(r0).enumerate() {
-                    if shared || row % n_motors == f.motor {
+                    if shared || tree[row % n_motors] == tree[f.motor] {
                         jac[(row, j)] = (a - b) / h;
                     }
                 }

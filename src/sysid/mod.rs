@@ -1,11 +1,12 @@
 //! System identification, the paper's data-fitting steps: excitation signals for the motors (`excite`), motor logs
-//! (`log`), the bench they are replayed on (`bench`), the least-squares fit (`fit`), the report (`identify`), and a
-//! synthetic bench with hidden values to prove it (`synthetic`).
+//! (`log`), the bench they are replayed on (`bench`), the least-squares fit (`fit`), the report (`identify`), a robot
+//! hung in the air as a bench (`robot`), and a synthetic bench with hidden values to prove it (`synthetic`).
 
 pub mod bench;
 pub mod excite;
 pub mod fit;
 pub mod identify;
 pub mod log;
+pub mod robot;
 pub mod spectrum_plot;
 pub mod synthetic;
