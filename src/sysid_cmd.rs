@@ -79,6 +79,28 @@ pub enum SysidCmd {
         #[arg(long, default_value = "out/sysid/log.csv")]
         out: PathBuf,
     },
+    /// Tune the state estimator's noise parameters against ground truth: on recordings of the realistic sim2sim
+    /// with a policy walking (default), or on a robot's own recordings in the same columns; writes a sim2sim config
+    /// with the tuned values and the velocity error before and after.
+    Estimator {
+        /// The policy that walks while the realistic sim2sim records (when no --recording is given).
+        #[arg(long, default_value = "assets/policies/C/seed1.json")]
+        policy: PathBuf,
+        /// Seconds of each recording.
+        #[arg(long, default_value_t = 48.0)]
+        seconds: f64,
+        /// Tune on this recording instead (CSV, docs/sysid.md); needs --held-out-recording.
+        #[arg(long, requires = "held_out_recording")]
+        recording: Option<PathBuf>,
+        #[arg(long)]
+        held_out_recording: Option<PathBuf>,
+        /// Seed of the fitted recording (the held-out one gets seed + 1).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output folder (estimator.toml, estimator.md, estimator.json, the recordings).
+        #[arg(long, default_value = "out/sysid/estimator")]
+        out: PathBuf,
+    },
     /// Identify the motors' armature, damping, dry friction, torque constant and command delay from a log: MuJoCo
     /// replays the logged commands and Levenberg–Marquardt matches the logged positions.
     Fit {
@@ -110,7 +132,8 @@ pub enum SysidCmd {
         /// motor runs its PD loop (errors die out), 0.5 s for torque or current commands (open loop drifts).
         #[arg(long)]
         window: Option<f64>,
-        /// Seconds after each window's start left out of the comparison (default: 0.1 s under PD loops, else 0).
+        /// Seconds after each window's start left out of the comparison (default under PD loops: 0.1 s on a bench,
+        /// 1 s on the hung robot; 0 for torque or current commands).
         #[arg(long)]
         burn_in: Option<f64>,
         /// Upper bound of the delay, s.
@@ -218,6 +241,9 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
                 sensors.floor()
             );
         }
+        SysidCmd::Estimator { policy, seconds, recording, held_out_recording, seed, out } => {
+            tune_estimator(&policy, seconds, recording.as_deref(), held_out_recording.as_deref(), seed, &out)?;
+        }
         SysidCmd::Fit {
             bench,
             robot,
@@ -239,7 +265,12 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
             let closed_loop =
                 data.motors.iter().all(|m| matches!(m.command, crate::sysid::log::Command::Position { .. }));
             let window = window.unwrap_or(if closed_loop { 5.0 } else { 0.5 });
-            let burn_in = burn_in.unwrap_or(if closed_loop { 0.1 } else { 0.0 });
+            // A hung leg's slowest PD mode takes about a second to forget a window's initial state; a bench load 0.1 s.
+            let burn_in = burn_in.unwrap_or(match (closed_loop, robot.is_some()) {
+                (true, true) => 1.0,
+                (true, false) => 0.1,
+                _ => 0.0,
+            });
             b.burn_in = (burn_in / data.step()).round() as usize;
             let held = held_out_log.as_deref().map(MotorLog::read).transpose()?;
             if let Some(h) = &held {
@@ -284,6 +315,57 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
             write_identification(&id, &b, &data, held.as_ref(), &start, &mjcf, &out)?;
         }
     }
+    Ok(())
+}
+
+fn tune_estimator(
+    policy: &std::path::Path,
+    seconds: f64,
+    recording: Option<&std::path::Path>,
+    held_out: Option<&std::path::Path>,
+    seed: u64,
+    out: &std::path::Path,
+) -> Result<()> {
+    use crate::eval::settings::{EvalSettings, Sim2SimMode};
+    use crate::sysid::estimator;
+    let base = EvalSettings { seed, threads: 1, ..EvalSettings::default() }.with_sim2sim(&Sim2SimMode::Realistic)?;
+    let default = base.sim2sim.estimator.filter.clone();
+    let (fit, held, mut runner) = match (recording, held_out) {
+        (Some(r), Some(h)) => (estimator::read_csv(r)?, estimator::read_csv(h)?, None),
+        _ => {
+            let mut runner = topa_env::policy_runner::PolicyRunner::load(policy, "policy")?;
+            eprintln!("recording {seconds} s of the realistic sim2sim twice (seeds {seed} and {})", seed + 1);
+            let fit = estimator::record(&mut runner, &base, seconds)?;
+            let held = estimator::record(&mut runner, &EvalSettings { seed: seed + 1, ..base.clone() }, seconds)?;
+            crate::eval::report::write_text(out, "recording.csv", &estimator::to_csv(&fit))?;
+            crate::eval::report::write_text(out, "held_out.csv", &estimator::to_csv(&held))?;
+            (fit, held, Some(runner))
+        }
+    };
+    let t = estimator::tune(&default, &fit, &held)?;
+    let mut tuned = base.sim2sim.clone();
+    tuned.estimator.filter = t.tuned.clone();
+    // Closed loop: the policy walking on the tuned filter's estimate, against the default's, on the held-out seed.
+    let closed = match &mut runner {
+        None => None,
+        Some(r) => {
+            let s = EvalSettings { seed: seed + 1, sim2sim: tuned.clone(), ..base.clone() };
+            let rec = estimator::record(r, &s, seconds)?;
+            let online = |v: &[topa_env::sim2sim::FilterSample]| {
+                estimator::rmse(&v.iter().map(|x| x.estimate).collect::<Vec<_>>(), v)
+            };
+            Some([online(&held), online(&rec)])
+        }
+    };
+    let toml = format!(
+        "# The realistic sim2sim with the state estimator tuned by `topa sysid estimator` (use: --sim2sim <this file>).\n{}",
+        toml::to_string(&tuned)?
+    );
+    crate::eval::report::write_text(out, "estimator.toml", &toml)?;
+    crate::eval::report::write_json(out, "estimator.json", &(&t, closed))?;
+    let md = estimator::markdown(&t, closed);
+    crate::eval::report::write_text(out, "estimator.md", &md)?;
+    println!("{md}\nresults: {} (estimator.toml, estimator.md, estimator.json)", out.display());
     Ok(())
 }
 

@@ -176,3 +176,52 @@ fn logs_that_do_not_fit_the_bench_are_refused_naming_the_fix() {
     assert!(e.contains("broken.xml"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+mod estimator_tuning {
+    use super::*;
+    use topa::eval::settings::{EvalSettings, Sim2SimMode};
+    use topa::sysid::estimator;
+    use topa_env::policy_runner::PolicyRunner;
+
+    #[test]
+    fn the_filter_replays_exactly_and_tuning_lowers_the_held_out_velocity_error() {
+        let dir = tempdir("estimator");
+        let mut runner = PolicyRunner::load(&root().join("assets/policies/C/seed1.json"), "C").unwrap();
+        let s = EvalSettings { seed: 3, threads: 1, ..EvalSettings::default() }
+            .with_sim2sim(&Sim2SimMode::Realistic)
+            .unwrap();
+        let fit = estimator::record(&mut runner, &s, 6.0).unwrap();
+        let held = estimator::record(&mut runner, &EvalSettings { seed: 4, ..s.clone() }, 6.0).unwrap();
+        assert!(fit.len() > 3000, "{} filter steps", fit.len());
+        // The replay with the recording's own settings is the filter that ran.
+        let default = s.sim2sim.estimator.filter.clone();
+        let again = estimator::replay(&default, &fit);
+        let worst = again.iter().zip(&fit).map(|(a, x)| (a - x.estimate).norm()).fold(0.0, f64::max);
+        assert!(worst < 1e-9, "replay differs from the online filter by {worst} m/s");
+        let t = estimator::tune(&default, &fit, &held).unwrap();
+        assert!(t.fit_rmse[1] < 0.8 * t.fit_rmse[0], "{:?}", t.fit_rmse);
+        assert!(t.held_out_rmse[1] < 0.8 * t.held_out_rmse[0], "{:?}", t.held_out_rmse);
+
+        // The CSV carries what the tuning needs: the same replay from the file (the first row starts the filter).
+        let f = dir.join("rec.csv");
+        std::fs::write(&f, estimator::to_csv(&held)).unwrap();
+        let back = estimator::read_csv(&f).unwrap();
+        assert_eq!(back.len(), held.len());
+        let (a, b) = (estimator::replay(&t.tuned, &held), estimator::replay(&t.tuned, &back));
+        assert!((estimator::rmse(&a, &held) - estimator::rmse(&b, &back)).abs() < 2e-3);
+
+        // Bad recordings: a missing column, a NaN.
+        let text = std::fs::read_to_string(&f).unwrap();
+        std::fs::write(&f, text.replacen(",restart_height", "", 1)).unwrap();
+        let e = format!("{:#}", estimator::read_csv(&f).unwrap_err());
+        assert!(e.contains("expected the columns"), "{e}");
+        let mut lines: Vec<String> = text.lines().map(String::from).collect();
+        let mut fields: Vec<String> = lines[5].split(',').map(String::from).collect();
+        fields[1] = "NaN".into();
+        lines[5] = fields.join(",");
+        std::fs::write(&f, lines.join("\n")).unwrap();
+        let e = format!("{:#}", estimator::read_csv(&f).unwrap_err());
+        assert!(e.contains("row 5, column accel_x: NaN"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

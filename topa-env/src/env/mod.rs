@@ -220,6 +220,11 @@ impl RobotEnv {
         self.sim2sim.as_ref()
     }
 
+    /// The same, mutable (to record the estimator's steps).
+    pub fn sim2sim_mut(&mut self) -> Option<&mut Sim2Sim> {
+        self.sim2sim.as_mut()
+    }
+
     /// Friction of the ground by place (a course's floors): each foot gets the friction under it before every step.
     pub fn set_ground_friction(&mut self, map: Option<Arc<crate::world::FrictionMap>>) {
         self.ground_friction = map;

@@ -216,6 +216,23 @@ pub struct Sim2Sim {
     joint_map: JointMap,
     joints: Vec<f64>,
     joint_vel: Vec<f64>,
+    /// When Some, every filter step is appended with the truth beside it (`topa sysid estimator` tunes on these).
+    pub recording: Option<Vec<FilterSample>>,
+    /// The filter's last restart (base height, feet), for the next recorded sample.
+    restart: Option<(f64, Vec<Vector3<f64>>)>,
+}
+
+/// One step of the state estimator as the robot's computer ran it, with the simulator's truth beside it.
+#[derive(Debug, Clone)]
+pub struct FilterSample {
+    pub dt: f64,
+    pub input: EstimatorInput,
+    /// The IMU's true velocity, world frame, m/s.
+    pub truth: Vector3<f64>,
+    /// The filter's velocity after this step.
+    pub estimate: Vector3<f64>,
+    /// The filter restarted before this step: base height and feet relative to the base (world frame).
+    pub restart: Option<(f64, Vec<Vector3<f64>>)>,
 }
 
 /// Standard gravity the accelerometer's specific force is corrected by, m/s² (the MJCF's).
@@ -254,6 +271,8 @@ impl Sim2Sim {
             joint_map,
             joints: vec![0.0; n],
             joint_vel: vec![0.0; n],
+            recording: None,
+            restart: None,
             cfg,
         })
     }
@@ -314,7 +333,19 @@ impl Sim2Sim {
         self.sense(d, idx, dt)?;
         if self.cfg.estimator.enabled {
             let input = self.filter_input(d, idx);
-            if !self.kf.step(dt, &input) {
+            let recorded = self.recording.is_some().then(|| input.clone());
+            let ok = self.kf.step(dt, &input);
+            if let (Some(input), Some(rec)) = (recorded, &mut self.recording) {
+                let v = d.object_velocity(mujoco_sys::ObjType::Site, idx.imu_site, false);
+                rec.push(FilterSample {
+                    dt,
+                    input,
+                    truth: Vector3::new(v[3], v[4], v[5]),
+                    estimate: self.kf.velocity(),
+                    restart: self.restart.take(),
+                });
+            }
+            if !ok {
                 self.filter_resets += 1;
                 if self.filter_resets <= 5 || self.filter_resets.is_power_of_two() {
                     log::warn!(
@@ -401,6 +432,9 @@ impl Sim2Sim {
             self.kin.feet(&self.joints, &self.joint_vel).iter().map(|f| r.transform_vector(&f.position)).collect();
         let height = -feet.iter().map(|f| f.z).sum::<f64>() / feet.len() as f64;
         self.kf.reset(height, &feet);
+        if self.recording.is_some() {
+            self.restart = Some((height, feet));
+        }
         Ok(())
     }
 
