@@ -362,6 +362,9 @@ fn tune_estimator(
         toml::to_string(&tuned)?
     );
     crate::eval::report::write_text(out, "estimator.toml", &toml)?;
+    // The file is what `--sim2sim` will read: it must load back to these values.
+    let back = EvalSettings::default().with_sim2sim(&Sim2SimMode::File(out.join("estimator.toml")))?;
+    anyhow::ensure!(back.sim2sim == tuned, "estimator.toml does not load back to the tuned values (a bug)");
     crate::eval::report::write_json(out, "estimator.json", &(&t, closed))?;
     let md = estimator::markdown(&t, closed);
     crate::eval::report::write_text(out, "estimator.md", &md)?;
