@@ -66,6 +66,9 @@ pub enum SysidCmd {
         /// bench's by 30–50 % either way, and a delay of 1–5 ms.
         #[arg(long, default_value_t = 7)]
         hidden_seed: u64,
+        /// The hidden delay, s, instead of a drawn one.
+        #[arg(long)]
+        hidden_delay: Option<f64>,
         /// Encoder counts per output revolution (the realistic sim2sim's: 16384; 0: exact).
         #[arg(long, default_value_t = 16384.0)]
         counts_per_rev: f64,
@@ -220,11 +223,24 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
                 png.display()
             );
         }
-        SysidCmd::Simulate { bench, robot, excitation, hidden_seed, counts_per_rev, position_noise, seed, out } => {
+        SysidCmd::Simulate {
+            bench,
+            robot,
+            excitation,
+            hidden_seed,
+            hidden_delay,
+            counts_per_rev,
+            position_noise,
+            seed,
+            out,
+        } => {
             let mut exc = synthetic::read_excitation(&excitation)?;
             let b = load_bench(&bench, robot.as_deref(), &exc)?.0;
             synthetic::drive_gains_from_model(&b, &mut exc);
-            let truth = synthetic::hidden(&b.nominal(), hidden_seed);
+            let mut truth = synthetic::hidden(&b.nominal(), hidden_seed);
+            if let Some(d) = hidden_delay {
+                truth.delay_s = d;
+            }
             let sensors = SensorModel { counts_per_rev, position_noise, seed };
             let log = synthetic::record(&b, &exc, &truth, &sensors)?;
             let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
@@ -407,6 +423,7 @@ fn write_identification(
     let stem = bench.file_stem().map_or("bench".into(), |s| s.to_string_lossy().into_owned());
     let xml = out.join(format!("{stem}_identified.xml"));
     identify::write_patched_mjcf(bench, &id.fit.params, &id.motors, &xml)?;
+    let sim2sim = identify::write_sim2sim(&id, out)?;
     println!("{md}");
     if !id.fit.converged {
         eprintln!(
@@ -414,6 +431,6 @@ fn write_identification(
             id.fit.termination
         );
     }
-    println!("results: {} (identified.json, identified.md, fit.png, {})", out.display(), xml.display());
+    println!("results: {} (identified.json, identified.md, fit.png, {}{})", out.display(), xml.display(), sim2sim);
     Ok(())
 }

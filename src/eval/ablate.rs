@@ -223,15 +223,17 @@ fn field_section(a: &Ablation) -> Result<String> {
     })
 }
 
-/// One section of the report by name, for the pages that show it (README.md): "headline" or "claims".
+/// One section of the report by name, for the pages that show it (README.md): "headline", "claims" (every claim
+/// and every seed's bars), "summary" (the group claims, and the bars one line per group) or "field".
 pub fn section(a: &Ablation, kind: &str) -> Result<String> {
     let paper = report::paper()?;
     let g = groups::group(&a.results);
     match kind {
         "headline" => Ok(groups::headline_markdown(&g, &paper, a.extent.resolution().push)),
         "claims" => Ok(super::claims::markdown(&super::claims::check(&g, a.extent.resolution()))),
+        "summary" => Ok(super::claims::summary_markdown(&g, a.extent.resolution())),
         "field" => field_section(a),
-        _ => anyhow::bail!("no report section {kind:?}: use headline, claims or field"),
+        _ => anyhow::bail!("no report section {kind:?}: use headline, claims, summary or field"),
     }
 }
 

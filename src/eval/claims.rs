@@ -145,6 +145,47 @@ pub fn check(groups: &[GroupResults], res: Resolution) -> Vec<Claim> {
     out
 }
 
+/// The claims about groups as a table, then per group one line on the per-seed bars: how many seeds meet all of
+/// them, and what each other seed misses (the full report lists every bar of every seed).
+pub fn summary_markdown(groups: &[GroupResults], res: Resolution) -> String {
+    let n_bars: usize = groups
+        .iter()
+        .filter(|g| matches!(g.name, Group::C | Group::CA))
+        .flat_map(|g| &g.members)
+        .map(|r| policy_bars(r).len())
+        .sum();
+    let all = check(groups, res);
+    let mut s = markdown(&all[..all.len() - n_bars]);
+    s.push('\n');
+    for g in groups.iter().filter(|g| matches!(g.name, Group::C | Group::CA)) {
+        let misses: Vec<String> = g
+            .members
+            .iter()
+            .filter_map(|r| {
+                let missed: Vec<String> = policy_bars(r)
+                    .into_iter()
+                    .filter(|c| c.holds == Some(false))
+                    .map(|c| {
+                        let bar = c.statement.rsplit(": ").next().unwrap_or("").split(" (").next().unwrap_or("");
+                        format!("{bar} — {}", c.evidence)
+                    })
+                    .collect();
+                let seed = r.policy.file_stem().map_or(String::new(), |f| f.to_string_lossy().into_owned());
+                (!missed.is_empty()).then(|| format!("{seed}: {}", missed.join("; ")))
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "- {} bars per seed (no fall, each MAE ≤ {MAX_COMPONENT_MAE}, no stand-still, gait): {}/{} seeds meet all{}",
+            g.name.label(),
+            g.members.len() - misses.len(),
+            g.members.len(),
+            if misses.is_empty() { String::new() } else { format!("; {}", misses.join(" · ")) }
+        );
+    }
+    s
+}
+
 /// The bars for one C or C+A policy.
 pub fn policy_bars(r: &PolicyResults) -> Vec<Claim> {
     let who = format!("{} {}", r.name.label(), r.policy.display());

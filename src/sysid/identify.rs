@@ -281,3 +281,31 @@ pub fn write_patched_mjcf(bench: &Path, params: &Params, motors: &[String], out:
     m.save_last_xml(out)?;
     Ok(())
 }
+
+/// When the fitted motors are the robot's (`assets/robots/topa_closed.toml`'s, by name), the realistic sim2sim with
+/// the identified values on the evaluation model (`identified_sim2sim.toml`, for `--sim2sim`); the name written, or
+/// an empty string.
+pub fn write_sim2sim(id: &Identification, out: &Path) -> Result<String> {
+    use crate::eval::settings::{EvalSettings, Sim2SimMode};
+    let spec = topa_env::assets::robot_path("assets/robots/topa_closed.toml");
+    let Ok((spec, _)) = topa_env::spec::RobotSpec::load(&spec) else { return Ok(String::new()) };
+    let order: Option<Vec<usize>> =
+        spec.motors.iter().map(|m| id.motors.iter().position(|n| *n == m.actuator)).collect();
+    let Some(order) = order else { return Ok(String::new()) };
+    let mut cfg = EvalSettings::default().with_sim2sim(&Sim2SimMode::Realistic)?.sim2sim;
+    let p = &id.fit.params.motors;
+    let a = &mut cfg.actuators;
+    a.enabled = true;
+    a.armature = order.iter().map(|&i| p[i].armature).collect();
+    a.damping = order.iter().map(|&i| p[i].damping).collect();
+    a.frictionloss = order.iter().map(|&i| p[i].frictionloss).collect();
+    a.torque_constant = order.iter().map(|&i| p[i].torque_constant).collect();
+    let text = format!(
+        "# The realistic sim2sim with the motors identified by `topa sysid fit` on the evaluation model \
+         (use: --sim2sim <this file>).\n# Identified command delay: {:.4} s (the sim2sim's own latency stays as it is).\n{}",
+        id.fit.params.delay_s,
+        toml::to_string(&cfg)?
+    );
+    crate::eval::report::write_text(out, "identified_sim2sim.toml", &text)?;
+    Ok(", identified_sim2sim.toml".into())
+}

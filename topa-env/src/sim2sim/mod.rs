@@ -7,6 +7,7 @@
 //! The env calls `before_physics_step` and `after_physics_step` around every `mj_step` (the filter runs at the
 //! physics rate, as the robot's at its IMU rate) and `sensed` when it writes an observation.
 
+pub mod actuators;
 pub mod estimator;
 pub mod kinematics;
 pub mod sensors;
@@ -25,6 +26,7 @@ use crate::indices::RobotIndices;
 use crate::linkage::JointMap;
 use crate::state::{self, quat_of};
 use crate::task;
+use actuators::ActuatorConfig;
 use estimator::{ContactKf, EstimatorConfig, EstimatorInput};
 use kinematics::LegKinematics;
 use sensors::{Delay, EncoderConfig, Noise3, NoiseConfig};
@@ -47,6 +49,8 @@ pub struct Sim2SimConfig {
     pub latency: LatencyConfig,
     /// Torque–speed limits of the motors.
     pub torque_speed: TorqueSpeedConfig,
+    /// The motors' actual armature, damping, friction and torque constant (identified, or a hidden "real robot").
+    pub actuators: ActuatorConfig,
     /// Physics timestep for evaluations run in this mode, s (0 = the evaluation's own). The motor drivers run
     /// their PD at kHz rates; MuJoCo applies the PD once per physics step.
     pub timestep: f64,
@@ -122,6 +126,7 @@ impl TorqueSpeedConfig {
 impl Sim2SimConfig {
     /// Anything on at all (else the env runs the ideal path, bit for bit as without this module).
     pub fn active(&self) -> bool {
+        // (Actuator values act on the model itself, not through the sim2sim state.)
         let l = self.latency;
         self.estimator.enabled
             || self.gyro.enabled
