@@ -86,3 +86,41 @@ impl ActuatorConfig {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spec::RobotSpec;
+
+    #[test]
+    fn values_land_on_the_motors_and_bad_lists_are_refused() {
+        let (spec, model) = RobotSpec::load(&crate::assets::robot_path("assets/robots/topa_closed.toml")).unwrap();
+        let mut model = Arc::new(model);
+        let idx = RobotIndices::resolve(&model, &Arc::new(spec)).unwrap();
+        let n = idx.n_motors;
+        let before = model.clone();
+        let cfg = ActuatorConfig {
+            enabled: true,
+            armature: vec![0.05; n],
+            torque_constant: (0..n).map(|i| 0.5 + 0.1 * i as f64).collect(),
+            ..Default::default()
+        };
+        cfg.apply(&mut model, &idx).unwrap();
+        for i in 0..n {
+            let (dof, a) = (idx.actuated_dof[i], idx.actuators[i]);
+            assert_eq!(model.dof_armature()[dof], 0.05);
+            assert_eq!(model.dof_damping()[dof], before.dof_damping()[dof], "an empty list keeps the MJCF's");
+            let k = 0.5 + 0.1 * i as f64;
+            assert!((model.actuator_gainprm()[a][0] - k * before.actuator_gainprm()[a][0]).abs() < 1e-12);
+            assert!((model.actuator_biasprm()[a][2] - k * before.actuator_biasprm()[a][2]).abs() < 1e-12);
+        }
+        // The shared model the caller still holds is untouched.
+        assert_ne!(before.dof_armature()[idx.actuated_dof[0]], 0.05);
+        let short = ActuatorConfig { enabled: true, damping: vec![0.1; 3], ..Default::default() };
+        assert!(short.validate(n).unwrap_err().contains("damping has 3 values; the robot has 10 motors"));
+        let negative = ActuatorConfig { enabled: true, frictionloss: vec![-0.1; n], ..Default::default() };
+        assert!(negative.validate(n).is_err());
+        let off = ActuatorConfig { enabled: false, damping: vec![0.1; 3], ..Default::default() };
+        assert!(off.validate(n).is_ok());
+    }
+}
