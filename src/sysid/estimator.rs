@@ -10,8 +10,6 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{ensure, Context, Result};
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use lm_nalgebra::{DMatrix, DVector, Dyn, Owned};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -20,6 +18,7 @@ use topa_env::sim2sim::estimator::{ContactKf, EstimatorConfig, EstimatorInput};
 use topa_env::sim2sim::FilterSample;
 use topa_env::VecEnv;
 
+use super::lm::{self, DMatrix, Residuals};
 use crate::eval::settings::EvalSettings;
 
 /// The commands the recording walks through, each held for `COMMAND_S`: forward, curving, backward, sideways,
@@ -87,7 +86,6 @@ pub fn rmse(estimates: &[Vector3<f64>], samples: &[FilterSample]) -> f64 {
 struct Problem<'a> {
     base: EstimatorConfig,
     samples: &'a [FilterSample],
-    z: DVector<f64>,
 }
 
 impl Problem<'_> {
@@ -106,26 +104,12 @@ impl Problem<'_> {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, z: &DVector<f64>) {
-        self.z.copy_from(z);
+impl Residuals for Problem<'_> {
+    fn residuals(&self, z: &[f64]) -> Option<Vec<f64>> {
+        Some(self.residuals_at(z))
     }
 
-    fn params(&self) -> DVector<f64> {
-        self.z.clone()
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        let r = self.residuals_at(self.z.as_slice());
-        r.iter().all(|x| x.is_finite()).then(|| DVector::from_vec(r))
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let z = self.z.as_slice();
+    fn jacobian(&self, z: &[f64]) -> Option<DMatrix<f64>> {
         let r0 = self.residuals_at(z);
         const H: f64 = 1e-3; // about 0.7 % of the parameter
         let cols: Vec<Vec<f64>> = (0..z.len())
@@ -136,13 +120,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
                 self.residuals_at(&zj)
             })
             .collect();
-        let mut jac = DMatrix::zeros(r0.len(), z.len());
-        for (j, r) in cols.iter().enumerate() {
-            for (i, (a, b)) in r.iter().zip(&r0).enumerate() {
-                jac[(i, j)] = (a - b) / H;
-            }
-        }
-        jac.iter().all(|x| x.is_finite()).then_some(jac)
+        Some(DMatrix::from_fn(r0.len(), z.len(), |i, j| (cols[j][i] - r0[i]) / H))
     }
 }
 
@@ -164,18 +142,17 @@ pub struct Tuning {
 /// Fits the filter's noise ratios on `fit`, checks them on `held_out`.
 pub fn tune(default: &EstimatorConfig, fit: &[FilterSample], held_out: &[FilterSample]) -> Result<Tuning> {
     ensure!(fit.len() > 100 && !held_out.is_empty(), "the recordings are too short to tune on");
-    let z = DVector::zeros(TUNED.len());
-    let problem = Problem { base: default.clone(), samples: fit, z };
-    let (problem, report) = LevenbergMarquardt::new().with_patience(30).minimize(problem);
-    let tuned = problem.config(problem.z.as_slice());
+    let problem = Problem { base: default.clone(), samples: fit };
+    let min = lm::minimize(&problem, vec![0.0; TUNED.len()], 30);
+    let tuned = problem.config(&min.z);
     let seconds = |s: &[FilterSample]| s.iter().map(|x| x.dt).sum::<f64>();
     Ok(Tuning {
         fit_rmse: [rmse(&replay(default, fit), fit), rmse(&replay(&tuned, fit), fit)],
         held_out_rmse: [rmse(&replay(default, held_out), held_out), rmse(&replay(&tuned, held_out), held_out)],
         default: default.clone(),
         tuned,
-        converged: report.termination.was_successful(),
-        termination: format!("{:?}", report.termination),
+        converged: min.converged,
+        termination: min.termination,
         fitted_s: seconds(fit),
         held_out_s: seconds(held_out),
     })

@@ -2,9 +2,8 @@
 //! `levenberg-marquardt` crate) on the position error over short windows (multiple shooting: each window starts
 //! from the logged state, so drift never dominates), with box bounds and 95 % confidence intervals.
 
+use super::lm::{self, DMatrix, Residuals};
 use anyhow::{ensure, Result};
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use lm_nalgebra::{DMatrix, DVector, Dyn, Owned};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -134,7 +133,6 @@ struct Problem<'a> {
     measured: Vec<f64>,
     base: Params,
     free: Vec<Free>,
-    z: DVector<f64>,
 }
 
 impl Problem<'_> {
@@ -146,8 +144,8 @@ impl Problem<'_> {
         p
     }
 
-    fn theta(&self) -> Vec<f64> {
-        self.free.iter().zip(self.z.iter()).map(|(f, &z)| to_theta(z, f.bounds)).collect()
+    fn theta(&self, z: &[f64]) -> Vec<f64> {
+        self.free.iter().zip(z).map(|(f, &z)| to_theta(z, f.bounds)).collect()
     }
 
     fn residuals_at(&self, theta: &[f64]) -> Option<Vec<f64>> {
@@ -211,29 +209,17 @@ impl Problem<'_> {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, z: &DVector<f64>) {
-        self.z.copy_from(z);
+impl Residuals for Problem<'_> {
+    fn residuals(&self, z: &[f64]) -> Option<Vec<f64>> {
+        self.residuals_at(&self.theta(z))
     }
 
-    fn params(&self) -> DVector<f64> {
-        self.z.clone()
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        self.residuals_at(&self.theta()).map(DVector::from_vec)
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let theta = self.theta();
+    fn jacobian(&self, z: &[f64]) -> Option<DMatrix<f64>> {
+        let theta = self.theta(z);
         let r0 = self.residuals_at(&theta)?;
         let mut j = self.jacobian_theta(&theta, &r0)?;
         // Chain rule through the bounded transform.
-        for (c, (f, &z)) in self.free.iter().zip(self.z.iter()).enumerate() {
+        for (c, (f, &z)) in self.free.iter().zip(z).enumerate() {
             let d = (f.bounds[1] - f.bounds[0]) / 2.0 * z.cos();
             j.column_mut(c).scale_mut(d);
         }
@@ -272,12 +258,11 @@ pub fn fit(bench: &Bench, log: &MotorLog, windows: &[Window], start: &Params, o:
     ensure!(!free.is_empty(), "nothing to fit: --fit names no parameter");
     let measured = bench.measured(log, windows);
     ensure!(measured.len() > 2 * free.len(), "the fitted part of the log is too short for {} parameters", free.len());
-    let z = DVector::from_iterator(free.len(), free.iter().map(|f| to_z(f.kind.get(start, f.motor), f.bounds)));
-    let problem = Problem { bench, log, windows, measured, base: start.clone(), free, z };
-    let rmse_start = rms(&problem.residuals_at(&problem.theta()).unwrap_or_default());
-    let patience = (o.max_evaluations / (problem.free.len() + 1)).max(1);
-    let (problem, report) = LevenbergMarquardt::new().with_patience(patience).minimize(problem);
-    let theta = problem.theta();
+    let z0: Vec<f64> = free.iter().map(|f| to_z(f.kind.get(start, f.motor), f.bounds)).collect();
+    let problem = Problem { bench, log, windows, measured, base: start.clone(), free };
+    let rmse_start = rms(&problem.residuals_at(&problem.theta(&z0)).unwrap_or_default());
+    let min = lm::minimize(&problem, z0, o.max_evaluations / (problem.free.len() + 1));
+    let theta = problem.theta(&min.z);
     let params = problem.params_at(&theta);
     let r = problem.residuals_at(&theta).unwrap_or_default();
     let rmse = rms(&r);
@@ -312,9 +297,9 @@ pub fn fit(bench: &Bench, log: &MotorLog, windows: &[Window], start: &Params, o:
     Ok(FitResult {
         params,
         estimates,
-        converged: report.termination.was_successful(),
-        termination: format!("{:?}", report.termination),
-        evaluations: report.number_of_evaluations,
+        converged: min.converged,
+        termination: min.termination,
+        evaluations: min.evaluations,
         rmse_start,
         rmse,
         residual_autocorrelation: rho,
