@@ -423,7 +423,7 @@ fn write_identification(
     let stem = bench.file_stem().map_or("bench".into(), |s| s.to_string_lossy().into_owned());
     let xml = out.join(format!("{stem}_identified.xml"));
     identify::write_patched_mjcf(bench, &id.fit.params, &id.motors, &xml)?;
-    let sim2sim = identify::write_sim2sim(&id, out)?;
+    let sim2sim = identify::write_sim2sim(id, out)?;
     println!("{md}");
     if !id.fit.converged {
         eprintln!(
