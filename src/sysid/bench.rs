@@ -11,6 +11,7 @@ use std::sync::Arc;
 
 use anyhow::{ensure, Context, Result};
 use mujoco_sys::{Data, Model, ObjType};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::log::{Command, MotorLog};
@@ -204,44 +205,53 @@ impl Bench {
     /// Simulated positions at the log's samples of each window (the window's first sample, the initial state, and
     /// the burn-in left out): `[window][sample][motor]`, flattened.
     pub fn simulate(&self, p: &Params, log: &MotorLog, windows: &[Window]) -> Result<Vec<f64>> {
-        let model = Arc::new(self.model_with(p)?);
-        let mut data = Data::new(model)?;
+        let mut data = Data::new(Arc::new(self.model_with(p)?))?;
         // MuJoCo 2.2 takes the armature into the mass matrix from a value mj_setConst computes, not from
         // dof_armature itself: without this, a changed armature has no effect.
         data.set_const()?;
+        let model = data.model_arc().clone();
+        // Windows are independent: in parallel, each on its own Data (the results do not depend on the threads).
+        let parts =
+            windows.par_iter().map(|&w| self.simulate_window(&model, p, log, w)).collect::<Result<Vec<Vec<f64>>>>()?;
+        Ok(parts.concat())
+    }
+
+    fn simulate_window(
+        &self,
+        model: &Arc<Model>,
+        p: &Params,
+        log: &MotorLog,
+        (start, end): Window,
+    ) -> Result<Vec<f64>> {
+        let mut data = Data::new(model.clone())?;
         let n = self.motors.len();
         let dt = self.timestep();
-        let mut out =
-            Vec::with_capacity(windows.iter().map(|(a, b)| (b - a - 1).saturating_sub(self.burn_in) * n).sum());
-        let mut history: Vec<Vec<f64>> = vec![Vec::new(); n];
-        for &(start, end) in windows {
-            data.reset()?;
-            if let Some(pose) = &self.start_pose {
-                let q: Vec<f64> = log.motors.iter().map(|m| m.position[start]).collect();
-                data.qpos_mut().copy_from_slice(&pose(&q)?);
-            }
-            for (m, b) in self.motors.iter().enumerate() {
-                data.qpos_mut()[b.qpos] = log.motors[m].position[start];
-                data.qvel_mut()[b.dof] = self.initial_velocity(log, m, start);
-            }
-            data.set_time(log.time[start]);
-            history.iter_mut().for_each(Vec::clear);
-            for i in start..end - 1 {
-                for k in 0..self.substeps {
-                    let t = log.time[i] + k as f64 * (log.time[i + 1] - log.time[i]) / self.substeps as f64;
-                    for (m, b) in self.motors.iter().enumerate() {
-                        let (q, v) = (data.qpos()[b.qpos], data.qvel()[b.dof]);
-                        history[m].push(command(log, m, t, Some((q, v))));
-                        let u = delayed(log, m, &history[m], log.time[start], t, dt, p.delay_s);
-                        data.qfrc_applied_mut()[b.dof] = p.motors[m].torque_constant * u;
-                    }
-                    data.step().with_context(|| {
-                        format!("the bench simulation diverged at t = {t:.3} s; the parameters are out of reach")
-                    })?;
+        let mut out = Vec::with_capacity((end - start - 1).saturating_sub(self.burn_in) * n);
+        let mut history: Vec<Vec<f64>> = vec![Vec::with_capacity((end - start) * self.substeps); n];
+        if let Some(pose) = &self.start_pose {
+            let q: Vec<f64> = log.motors.iter().map(|m| m.position[start]).collect();
+            data.qpos_mut().copy_from_slice(&pose(&q)?);
+        }
+        for (m, b) in self.motors.iter().enumerate() {
+            data.qpos_mut()[b.qpos] = log.motors[m].position[start];
+            data.qvel_mut()[b.dof] = self.initial_velocity(log, m, start);
+        }
+        data.set_time(log.time[start]);
+        for i in start..end - 1 {
+            for k in 0..self.substeps {
+                let t = log.time[i] + k as f64 * (log.time[i + 1] - log.time[i]) / self.substeps as f64;
+                for (m, b) in self.motors.iter().enumerate() {
+                    let (q, v) = (data.qpos()[b.qpos], data.qvel()[b.dof]);
+                    history[m].push(command(log, m, t, Some((q, v))));
+                    let u = delayed(log, m, &history[m], log.time[start], t, dt, p.delay_s);
+                    data.qfrc_applied_mut()[b.dof] = p.motors[m].torque_constant * u;
                 }
-                if i + 1 > start + self.burn_in {
-                    out.extend(self.motors.iter().map(|b| data.qpos()[b.qpos]));
-                }
+                data.step().with_context(|| {
+                    format!("the bench simulation diverged at t = {t:.3} s; the parameters are out of reach")
+                })?;
+            }
+            if i + 1 > start + self.burn_in {
+                out.extend(self.motors.iter().map(|b| data.qpos()[b.qpos]));
             }
         }
         Ok(out)
