@@ -418,8 +418,10 @@ fn write_identification(
         Some(h) => (h, 0),
         None => (log, (id.fitted_s / log.step()).round() as usize),
     };
-    let span = windows(from, (from + (2.0 / log.step()) as usize).min(plot_log.time.len()), usize::MAX / 2)[0];
-    identify::plot(b, plot_log, span, start, &id.fit.params, &out.join("fit.png"))?;
+    let to = (from + (2.0 / log.step()) as usize).min(plot_log.time.len());
+    if let Some(&span) = windows(from, to, usize::MAX / 2).first().filter(|(s, e)| e - s > b.burn_in + 2) {
+        identify::plot(b, plot_log, span, start, &id.fit.params, &out.join("fit.png"))?;
+    }
     let stem = bench.file_stem().map_or("bench".into(), |s| s.to_string_lossy().into_owned());
     let xml = out.join(format!("{stem}_identified.xml"));
     identify::write_patched_mjcf(bench, &id.fit.params, &id.motors, &xml)?;
