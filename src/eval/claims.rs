@@ -83,6 +83,17 @@ fn known(s: Stat) -> Option<Stat> {
 /// The claims that compare groups (O, C, CA by name), and the bars each C and C+A policy must meet. A comparison
 /// holds when the 95 % interval of the difference lies above zero (rliable's reading), fails when it lies below.
 pub fn check(groups: &[GroupResults], res: Resolution) -> Vec<Claim> {
+    let mut out = group_claims(groups, res);
+    for g in groups.iter().filter(|g| matches!(g.name, Group::C | Group::CA)) {
+        for r in &g.members {
+            out.extend(policy_bars(r));
+        }
+    }
+    out
+}
+
+/// The claims about groups (orderings, differences with their intervals), without the per-seed bars.
+fn group_claims(groups: &[GroupResults], res: Resolution) -> Vec<Claim> {
     let mut out = Vec::new();
     let t = |name: Group| find(groups, name).and_then(|g| known(g.t_fall_standing()));
     let (o, c, ca) = (t(Group::O), t(Group::C), t(Group::CA));
@@ -137,25 +148,13 @@ pub fn check(groups: &[GroupResults], res: Resolution) -> Vec<Claim> {
             out.push(improvement(statement, &sca, &sc, Resampling { tasks: false }, res, "%"));
         }
     }
-    for g in groups.iter().filter(|g| matches!(g.name, Group::C | Group::CA)) {
-        for r in &g.members {
-            out.extend(policy_bars(r));
-        }
-    }
     out
 }
 
 /// The claims about groups as a table, then per group one line on the per-seed bars: how many seeds meet all of
 /// them, and what each other seed misses (the full report lists every bar of every seed).
 pub fn summary_markdown(groups: &[GroupResults], res: Resolution) -> String {
-    let n_bars: usize = groups
-        .iter()
-        .filter(|g| matches!(g.name, Group::C | Group::CA))
-        .flat_map(|g| &g.members)
-        .map(|r| policy_bars(r).len())
-        .sum();
-    let all = check(groups, res);
-    let mut s = markdown(&all[..all.len() - n_bars]);
+    let mut s = markdown(&group_claims(groups, res));
     s.push('\n');
     for g in groups.iter().filter(|g| matches!(g.name, Group::C | Group::CA)) {
         let misses: Vec<String> = g

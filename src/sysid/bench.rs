@@ -13,6 +13,7 @@ use anyhow::{ensure, Context, Result};
 use mujoco_sys::{Data, Model, ObjType};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use topa_env::sim2sim::actuators::ActuatorConfig;
 
 use super::log::{Command, MotorLog};
 
@@ -37,6 +38,21 @@ pub struct Params {
     pub motors: Vec<MotorParams>,
     /// s.
     pub delay_s: f64,
+}
+
+impl Params {
+    /// The motors' values in the order `order` gives (indices into `motors`), as the sim2sim's `[actuators]` table
+    /// holds them (not yet enabled).
+    pub fn actuators(&self, order: &[usize]) -> ActuatorConfig {
+        let pick = |f: fn(&MotorParams) -> f64| order.iter().map(|&i| f(&self.motors[i])).collect();
+        ActuatorConfig {
+            enabled: false,
+            armature: pick(|m| m.armature),
+            damping: pick(|m| m.damping),
+            frictionloss: pick(|m| m.frictionloss),
+            torque_constant: pick(|m| m.torque_constant),
+        }
+    }
 }
 
 /// A logged motor in the bench model.
@@ -192,11 +208,8 @@ impl Bench {
     /// A copy of the model with `p`'s joint parameters and its actuators off (the drive is ours).
     pub fn model_with(&self, p: &Params) -> Result<Model> {
         let mut m = self.model.try_clone()?;
-        for (b, q) in self.motors.iter().zip(&p.motors) {
-            m.dof_armature_mut()[b.dof] = q.armature;
-            m.dof_damping_mut()[b.dof] = q.damping;
-            m.dof_frictionloss_mut()[b.dof] = q.frictionloss;
-        }
+        let motors: Vec<(usize, usize)> = self.motors.iter().map(|b| (b.dof, b.actuator)).collect();
+        p.actuators(&(0..motors.len()).collect::<Vec<_>>()).put(&mut m, &motors);
         m.actuator_gainprm_mut().iter_mut().for_each(|g| g.fill(0.0));
         m.actuator_biasprm_mut().iter_mut().for_each(|g| g.fill(0.0));
         Ok(m)

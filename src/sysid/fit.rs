@@ -44,7 +44,8 @@ impl Kind {
         }
     }
 
-    fn get(self, p: &Params, m: usize) -> f64 {
+    /// This kind's value of motor `m` in `p` (the delay is shared).
+    pub fn get(self, p: &Params, m: usize) -> f64 {
         let q = &p.motors[m];
         match self {
             Kind::Armature => q.armature,

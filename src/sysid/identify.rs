@@ -96,7 +96,7 @@ pub fn identify(plan: &Plan) -> Result<Identification> {
                 .estimates
                 .iter()
                 .map(|e| {
-                    let truth = t_value(t, e.kind, e.motor);
+                    let truth = e.kind.get(t, e.motor);
                     TruthError {
                         kind: e.kind,
                         motor: e.motor,
@@ -128,17 +128,6 @@ pub fn identify(plan: &Plan) -> Result<Identification> {
         wall_s: t0.elapsed().as_secs_f64(),
         threads: rayon::current_num_threads(),
     })
-}
-
-fn t_value(p: &Params, kind: Kind, m: usize) -> f64 {
-    let q = &p.motors[m];
-    match kind {
-        Kind::Armature => q.armature,
-        Kind::Damping => q.damping,
-        Kind::Frictionloss => q.frictionloss,
-        Kind::TorqueConstant => q.torque_constant,
-        Kind::Delay => p.delay_s,
-    }
 }
 
 /// The report: per motor each fitted value with its 95 % interval (and the true value when known), the delay,
@@ -266,18 +255,12 @@ pub fn plot(bench: &Bench, log: &MotorLog, span: Window, start: &Params, fitted:
 /// file (MuJoCo writes it flattened).
 pub fn write_patched_mjcf(bench: &Path, params: &Params, motors: &[String], out: &Path) -> Result<()> {
     let mut m = mujoco_sys::Model::from_xml_path(bench)?;
-    for (name, p) in motors.iter().zip(&params.motors) {
+    let mut pairs = Vec::new();
+    for name in motors {
         let a = m.id(mujoco_sys::ObjType::Actuator, name)?;
-        let joint = m.actuator_trnid()[a][0] as usize;
-        let dof = m.jnt_dofadr_of(joint);
-        m.dof_armature_mut()[dof] = p.armature;
-        m.dof_damping_mut()[dof] = p.damping;
-        m.dof_frictionloss_mut()[dof] = p.frictionloss;
-        m.actuator_gainprm_mut()[a][0] *= p.torque_constant;
-        for b in &mut m.actuator_biasprm_mut()[a][1..3] {
-            *b *= p.torque_constant;
-        }
+        pairs.push((m.jnt_dofadr_of(m.actuator_trnid()[a][0] as usize), a));
     }
+    params.actuators(&(0..pairs.len()).collect::<Vec<_>>()).put(&mut m, &pairs);
     m.save_last_xml(out)?;
     Ok(())
 }
@@ -293,13 +276,7 @@ pub fn write_sim2sim(id: &Identification, out: &Path) -> Result<String> {
         spec.motors.iter().map(|m| id.motors.iter().position(|n| *n == m.actuator)).collect();
     let Some(order) = order else { return Ok(String::new()) };
     let mut cfg = EvalSettings::default().with_sim2sim(&Sim2SimMode::Realistic)?.sim2sim;
-    let p = &id.fit.params.motors;
-    let a = &mut cfg.actuators;
-    a.enabled = true;
-    a.armature = order.iter().map(|&i| p[i].armature).collect();
-    a.damping = order.iter().map(|&i| p[i].damping).collect();
-    a.frictionloss = order.iter().map(|&i| p[i].frictionloss).collect();
-    a.torque_constant = order.iter().map(|&i| p[i].torque_constant).collect();
+    cfg.actuators = topa_env::sim2sim::actuators::ActuatorConfig { enabled: true, ..id.fit.params.actuators(&order) };
     let text = format!(
         "# The realistic sim2sim with the motors identified by `topa sysid fit` on the evaluation model \
          (use: --sim2sim <this file>).\n# Identified command delay: {:.4} s (the sim2sim's own latency stays as it is).\n{}",

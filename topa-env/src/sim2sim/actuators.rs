@@ -55,15 +55,11 @@ impl ActuatorConfig {
         Ok(())
     }
 
-    /// Puts the values on `model` (a copy when they differ) and recomputes what depends on them.
-    pub fn apply(&self, model: &mut Arc<Model>, idx: &RobotIndices) -> Result<()> {
-        if !self.enabled {
-            return Ok(());
-        }
-        self.validate(idx.n_motors).map_err(EnvError::Config)?;
-        let m = Arc::make_mut(model);
-        for i in 0..idx.n_motors {
-            let (dof, a) = (idx.actuated_dof[i], idx.actuators[i]);
+    /// Writes the values onto `m` in place, motor i being `motors[i]` = (its joint's dof, its actuator): the joint's
+    /// armature, damping and frictionloss, and the torque constant as a factor on the actuator's PD gains (gainprm =
+    /// kp, biasprm = 0 −kp −kd). Without `Data::set_const` afterwards a changed armature has no effect.
+    pub fn put(&self, m: &mut Model, motors: &[(usize, usize)]) {
+        for (i, &(dof, a)) in motors.iter().enumerate() {
             if let Some(&v) = self.armature.get(i) {
                 m.dof_armature_mut()[dof] = v;
             }
@@ -79,6 +75,16 @@ impl ActuatorConfig {
                 m.actuator_biasprm_mut()[a][2] *= k;
             }
         }
+    }
+
+    /// Puts the values on `model` (a copy when they differ) and recomputes what depends on them.
+    pub fn apply(&self, model: &mut Arc<Model>, idx: &RobotIndices) -> Result<()> {
+        if !self.enabled {
+            return Ok(());
+        }
+        self.validate(idx.n_motors).map_err(EnvError::Config)?;
+        let motors: Vec<(usize, usize)> = idx.actuated_dof.iter().copied().zip(idx.actuators.iter().copied()).collect();
+        self.put(Arc::make_mut(model), &motors);
         // MuJoCo 2.2 takes the armature into the mass matrix through mj_setConst.
         let mut d = Data::new(model.clone())?;
         d.set_const()?;
