@@ -224,7 +224,8 @@ fn field_section(a: &Ablation) -> Result<String> {
 }
 
 /// One section of the report by name, for the pages that show it (README.md): "headline", "claims" (every claim
-/// and every seed's bars), "summary" (the group claims, and the bars one line per group) or "field".
+/// and every seed's bars), "summary" (the group claims, and the bars one line per group), "field" (the real-world
+/// test's tables and claims) or "field_tables".
 pub fn section(a: &Ablation, kind: &str) -> Result<String> {
     let paper = report::paper()?;
     let g = groups::group(&a.results);
@@ -233,7 +234,11 @@ pub fn section(a: &Ablation, kind: &str) -> Result<String> {
         "claims" => Ok(super::claims::markdown(&super::claims::check(&g, a.extent.resolution()))),
         "summary" => Ok(super::claims::summary_markdown(&g, a.extent.resolution())),
         "field" => field_section(a),
-        _ => anyhow::bail!("no report section {kind:?}: use headline, claims, summary or field"),
+        "field_tables" => Ok(match &a.field {
+            Some(f) => super::field::markdown(f, &paper),
+            None => String::new(),
+        }),
+        _ => anyhow::bail!("no report section {kind:?}: use headline, claims, summary, field or field_tables"),
     }
 }
 
