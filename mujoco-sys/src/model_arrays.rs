@@ -110,6 +110,11 @@ read_arrays! {
     eq_active: u8, neq;
     eq_data: [f64; mjNEQDATA as usize], neq;
     key_time: f64, nkey;
+    /// Height fields: half-extents x, y, elevation z and base depth (m); samples per row and column; first sample.
+    hfield_size: [f64; 4], nhfield;
+    hfield_nrow: i32, nhfield;
+    hfield_ncol: i32, nhfield;
+    hfield_adr: i32, nhfield;
 }
 
 write_arrays! {
@@ -137,6 +142,9 @@ write_arrays! {
     actuator_biasprm / actuator_biasprm_mut: [f64; mjNBIAS as usize], nu;
     /// Actuator force limits [low, high] (N·m for these joints), applied where `actuator_forcelimited`.
     actuator_forcerange / actuator_forcerange_mut: [f64; 2], nu;
+    /// Height-field samples, normalised to [0, 1] of the field's elevation (row-major, row 0 at −y); collisions
+    /// read them live, so a field can be written after compiling.
+    hfield_data / hfield_data_mut: f32, nhfielddata;
 }
 
 impl Model {

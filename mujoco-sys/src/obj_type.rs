@@ -15,10 +15,11 @@ pub enum ObjType {
     Sensor,
     Equality,
     Key,
+    Hfield,
 }
 
 impl ObjType {
-    pub const ALL: [ObjType; 8] = [
+    pub const ALL: [ObjType; 9] = [
         ObjType::Body,
         ObjType::Joint,
         ObjType::Geom,
@@ -27,6 +28,7 @@ impl ObjType {
         ObjType::Sensor,
         ObjType::Equality,
         ObjType::Key,
+        ObjType::Hfield,
     ];
 
     pub(crate) fn raw(self) -> i32 {
@@ -39,6 +41,7 @@ impl ObjType {
             ObjType::Sensor => ffi::mjOBJ_SENSOR,
             ObjType::Equality => ffi::mjOBJ_EQUALITY,
             ObjType::Key => ffi::mjOBJ_KEY,
+            ObjType::Hfield => ffi::mjOBJ_HFIELD,
         }) as i32
     }
 
@@ -57,6 +60,7 @@ impl ObjType {
             ObjType::Sensor => m.nsensor,
             ObjType::Equality => m.neq,
             ObjType::Key => m.nkey,
+            ObjType::Hfield => m.nhfield,
         }
     }
 }
@@ -72,6 +76,7 @@ impl fmt::Display for ObjType {
             ObjType::Sensor => "sensor",
             ObjType::Equality => "equality",
             ObjType::Key => "keyframe",
+            ObjType::Hfield => "hfield",
         })
     }
 }

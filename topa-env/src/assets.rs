@@ -46,8 +46,12 @@ pub fn robot_path(robot: &str) -> PathBuf {
     }
 }
 
-/// The robot a config names: its spec, checked against its compiled MJCF.
+/// The robot a config names: its spec, checked against its compiled MJCF; on the config's terrain when it has one.
 pub fn load_robot(cfg: &EnvConfig) -> Result<(Arc<RobotSpec>, Arc<Model>)> {
     let (spec, model) = RobotSpec::load(&robot_path(&cfg.robot))?;
+    if cfg.terrain.enabled {
+        let (model, _) = crate::terrain::Terrain::shared(&cfg.terrain)?.compile(&spec)?;
+        return Ok((Arc::new(spec), model));
+    }
     Ok((Arc::new(spec), Arc::new(model)))
 }

@@ -56,6 +56,8 @@ pub struct EnvConfig {
     pub sim2sim: crate::sim2sim::Sim2SimConfig,
     /// How far the cyclic adversary may perturb (its channels' bounds).
     pub adversary: AdversaryBounds,
+    /// Rough terrain instead of the flat floor (default off: the paper's flat ground).
+    pub terrain: crate::terrain::TerrainConfig,
 }
 
 /// What is trained.
@@ -119,6 +121,7 @@ impl Default for EnvConfig {
             termination: TerminationConfig::default(),
             sim2sim: Default::default(),
             adversary: AdversaryBounds::default(),
+            terrain: crate::terrain::TerrainConfig::default(),
         }
     }
 }
@@ -508,6 +511,7 @@ impl EnvConfig {
             }
         }
         self.sim2sim.validate().map_err(EnvError::Config)?;
+        self.terrain.validate()?;
         Ok(())
     }
 

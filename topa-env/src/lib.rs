@@ -19,6 +19,7 @@ pub mod state;
 pub mod symmetry;
 pub mod task;
 pub mod tasks;
+pub mod terrain;
 pub mod topa;
 pub mod vec_env;
 pub mod world;

@@ -49,6 +49,10 @@ pub trait Task: Send {
     fn take_physics_ns(&mut self) -> u64 {
         0
     }
+    /// Where a curriculum has put this task (e.g. the terrain row), if the task has one.
+    fn curriculum_level(&self) -> Option<f64> {
+        None
+    }
 }
 
 pub use trainer::rng::{load_rng, save_rng, RNG_WORDS};

@@ -236,6 +236,7 @@ impl<T: Task> VecEnv for BatchEnv<T> {
             time_out_share: f.time_outs as f64 / k,
             mean_terms: f.terms.iter().map(|t| t / k).collect(),
             diverged: f.diverged,
+            curriculum_level: mean_level(&self.tasks),
         }
     }
 
@@ -351,6 +352,12 @@ impl<T: Task> BatchEnv<T> {
         }
         Ok(())
     }
+}
+
+/// The tasks' mean curriculum level, if they have one.
+fn mean_level<T: Task>(tasks: &[T]) -> Option<f64> {
+    let levels: Vec<f64> = tasks.iter().filter_map(|t| t.curriculum_level()).collect();
+    (!levels.is_empty()).then(|| levels.iter().sum::<f64>() / levels.len() as f64)
 }
 
 /// `n` envs of the robot `cfg.robot` names, env `i` seeded with (`seed`, stream `i`), stepped on `threads`

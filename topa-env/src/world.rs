@@ -15,6 +15,8 @@ use crate::spec::RobotSpec;
 pub struct WorldXml {
     pub assets: String,
     pub worldbody: String,
+    /// Top-level elements after the robot's own, e.g. a `<size>` that raises the contact capacity for terrain.
+    pub top: String,
     /// Keep the robot's floor as the (hidden) ground instead of switching its contacts off.
     pub keep_floor: bool,
 }
@@ -55,11 +57,12 @@ pub fn mjcf_text(spec: &RobotSpec, world: &WorldXml) -> Result<String> {
     };
     let end = at + "</worldbody>".len();
     Ok(format!(
-        "{}<!-- world -->\n{}\n{}\n<asset>\n{}\n</asset>{}",
+        "{}<!-- world -->\n{}\n{}\n<asset>\n{}\n</asset>\n{}{}",
         &text[..at],
         world.worldbody,
         &text[at..end],
         world.assets,
+        world.top,
         &text[end..]
     ))
 }
@@ -100,6 +103,7 @@ mod tests {
             worldbody: r#"<geom name="w_floor" type="box" size="2 2 0.05" pos="0 0 -0.05" material="w_mat"
                  contype="0" conaffinity="1" priority="1" friction="0.4 0.005 0.0001"/>"#
                 .into(),
+            top: String::new(),
             keep_floor: false,
         };
         let m = compile(&spec, &world).unwrap();

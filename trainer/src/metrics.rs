@@ -84,6 +84,7 @@ impl MetricsWriter {
             "diverged",
             "mean_step_reward",
             "action_std",
+            "curriculum_level",
         ]
         .iter()
         .map(|s| s.to_string())
@@ -145,6 +146,7 @@ impl MetricsWriter {
             e.diverged as f64,
             log.mean_step_reward,
             log.action_std,
+            e.curriculum_level.unwrap_or(f64::NAN),
         ];
         // Zeros while no adversary acts (phase 1, or a run without one).
         values.extend((0..self.perturbation_columns).map(|i| log.perturbation.get(i).copied().unwrap_or(0.0)));

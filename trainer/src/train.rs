@@ -238,13 +238,16 @@ impl Trainer {
         let k = e.episodes as f64;
         let mut v = vec![k, k * e.mean_return, k * e.mean_length, k * e.time_out_share, e.diverged as f64];
         v.push(mean_step_reward);
+        // Ranks hold equal shares of the envs: the mean level is the mean of the ranks' means.
+        v.extend(e.curriculum_level.map_or([0.0, 0.0], |l| [l, 1.0]));
         v.extend(e.mean_terms.iter().map(|t| k * t));
         self.comm.sum_f64(&mut v);
         let total = v[0].max(1.0);
         e.episodes = v[0] as usize;
         (e.mean_return, e.mean_length, e.time_out_share) = (v[1] / total, v[2] / total, v[3] / total);
         e.diverged = v[4] as usize;
-        e.mean_terms = v[6..].iter().map(|t| t / total).collect();
+        e.curriculum_level = (v[7] > 0.0).then(|| v[6] / v[7]);
+        e.mean_terms = v[8..].iter().map(|t| t / total).collect();
         (e, v[5] / size as f64)
     }
 

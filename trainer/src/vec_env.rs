@@ -18,6 +18,8 @@ pub struct EpisodeStats {
     pub mean_terms: Vec<f64>,
     /// Envs reset because their simulation failed or blew up.
     pub diverged: usize,
+    /// Mean curriculum level over the envs now (e.g. the terrain row), when the task has a curriculum.
+    pub curriculum_level: Option<f64>,
 }
 
 /// Where the time of `step` went since the last `take_step_timing` (for `topa bench train`).

@@ -98,7 +98,7 @@ impl Course {
             g[0], g[1], self.goal_radius
         )
         .unwrap();
-        WorldXml { assets, worldbody: body, keep_floor: true }
+        WorldXml { assets, worldbody: body, top: String::new(), keep_floor: true }
     }
 
     /// The robot on this course, and the friction under its feet.

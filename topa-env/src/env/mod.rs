@@ -8,6 +8,7 @@ use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+mod ground;
 mod snapshot;
 
 use crate::config::EnvConfig;
@@ -91,8 +92,14 @@ pub struct RobotEnv {
     sim2sim: Option<Sim2Sim>,
     /// Where the next reset puts the base (x, y, yaw) instead of the keyframe's place.
     start_pose: Option<[f64; 3]>,
-    /// Friction of the ground by place (a course's floors), given to each foot before every step.
+    /// Friction of the ground by place (a course's floors, a terrain's tiles), given to each foot before every step.
     ground_friction: Option<Arc<crate::world::FrictionMap>>,
+    /// This episode's randomised friction scale (the ground's map values are scaled by it too).
+    friction_scale: f64,
+    /// The robot's place on a terrain, when `[env.terrain]` is on.
+    terrain: Option<ground::OnTerrain>,
+    /// The last step ended in a fall (the terrain curriculum reads it at the reset that follows).
+    fell: bool,
 }
 
 impl RobotEnv {
@@ -136,6 +143,17 @@ impl RobotEnv {
             .collect();
         motors.torque_soft_limit = idx.torque_limit.iter().map(|t| t * cfg.rewards.soft_torque_limit).collect();
         motors.deviation_groups = idx.deviation_groups.clone();
+        let terrain = if cfg.terrain.enabled {
+            if model.id(mujoco_sys::ObjType::Hfield, crate::terrain::TERRAIN_NAME).is_err() {
+                return Err(EnvError::Config(
+                    "[env.terrain] is on but the model has no terrain: build it with assets::load_robot".into(),
+                ));
+            }
+            Some(ground::OnTerrain::new(crate::terrain::Terrain::shared(&cfg.terrain)?, index, &mut rng))
+        } else {
+            None
+        };
+        let ground_friction = terrain.as_ref().map(|t| Arc::new(t.map.friction_map()));
         let sim2sim = if cfg.sim2sim.active() {
             Some(Sim2Sim::new(Arc::new(cfg.sim2sim.clone()), model.clone(), &idx, seed, index)?)
         } else {
@@ -168,7 +186,10 @@ impl RobotEnv {
             fatal: None,
             sim2sim,
             start_pose: None,
-            ground_friction: None,
+            ground_friction,
+            friction_scale: 1.0,
+            terrain,
+            fell: false,
         })
     }
 
@@ -227,24 +248,6 @@ impl RobotEnv {
         self.sim2sim.as_mut()
     }
 
-    /// Friction of the ground by place (a course's floors): each foot gets the friction under it before every step.
-    pub fn set_ground_friction(&mut self, map: Option<Arc<crate::world::FrictionMap>>) {
-        self.ground_friction = map;
-    }
-
-    /// Each foot's sliding friction to the map's value under it (the model is copied for this env on first write).
-    fn apply_ground_friction(&mut self) {
-        let Some(map) = &self.ground_friction else { return };
-        for f in 0..2 {
-            let p = self.data.xpos()[self.idx.foot_bodies[f]];
-            let mu = map.at([p[0], p[1]]);
-            let g = self.idx.foot_geoms[f];
-            if self.data.model().geom_friction()[g][0] != mu {
-                self.data.model_mut().geom_friction_mut()[g][0] = mu;
-            }
-        }
-    }
-
     /// A reset with the base put at (x, y) on the ground, heading `yaw` (rad), in the stand pose: a robot put back
     /// on a course.
     pub fn reset_at(&mut self, obs: &mut [f32], [x, y, yaw]: [f64; 3]) -> Result<()> {
@@ -279,6 +282,7 @@ impl RobotEnv {
     fn randomize_model(&mut self) -> Result<()> {
         let dr = self.cfg.domain_rand.clone();
         let friction = self.rng.random_range(dr.friction_scale[0]..=dr.friction_scale[1]);
+        self.friction_scale = friction;
         let nbody = self.nominal.body_mass.len();
         let mass: Vec<f64> = (0..nbody).map(|_| self.rng.random_range(dr.mass_scale[0]..=dr.mass_scale[1])).collect();
         let nominal = self.nominal.clone();
@@ -370,7 +374,7 @@ impl RobotEnv {
     pub fn has_fallen(&self) -> bool {
         let t = &self.cfg.termination;
         let s = &self.robot_state;
-        s.base_pos[2] < t.min_base_height
+        self.base_height() < t.min_base_height
             || s.roll.abs() > t.max_tilt
             || s.pitch.abs() > t.max_tilt
             || (t.body_contact && s.body_contact)
@@ -423,6 +427,9 @@ impl Task for RobotEnv {
             self.randomize_model()?;
         }
         self.data.reset_keyframe(self.idx.stand_key)?;
+        if self.terrain.is_some() && self.start_pose.is_none() {
+            self.place_on_terrain();
+        }
         if let Some([x, y, yaw]) = self.start_pose.take() {
             let b = self.idx.base_qpos;
             let q = self.data.qpos()[b + 3..b + 7].to_vec();
@@ -433,6 +440,7 @@ impl Task for RobotEnv {
             let c = turn.quaternion();
             qpos[b + 3..b + 7].copy_from_slice(&[c.w, c.i, c.j, c.k]);
         }
+        self.lift_onto_ground();
         self.data.set_time(0.0);
         self.data.xfrc_applied_mut().iter_mut().for_each(|w| *w = [0.0; 6]);
         // A small random initial base velocity, so episodes do not all start identically.
@@ -513,13 +521,14 @@ impl Task for RobotEnv {
         }
         let command = self.command();
         let base_height_target = self.base_height_target();
+        let (base_height, foot_height) = (self.base_height(), self.foot_heights());
         let s = &self.robot_state;
         let inputs = RewardInputs {
             command,
             lin_vel: s.lin_vel,
             ang_vel: s.ang_vel,
             gravity: s.gravity,
-            base_height: s.base_pos[2],
+            base_height,
             base_height_target,
             motors: &self.motors,
             foot_speed: s.foot_speed,
@@ -527,7 +536,7 @@ impl Task for RobotEnv {
             touchdown,
             air_time: air_at_touchdown,
             mode_time: std::array::from_fn(|f| if contact[f] { self.contact_time[f] } else { self.air_time[f] }),
-            foot_height: self.idx.foot_sites.map(|site| self.data.site_xpos()[site][2]),
+            foot_height,
         };
         let scale = if self.cfg.rewards.scale_by_dt { dt } else { 1.0 };
         let reward = rewards::weighted_terms(&self.cfg.rewards, &inputs, scale, &mut self.terms);
@@ -539,7 +548,9 @@ impl Task for RobotEnv {
         self.last_contact = contact;
         self.last_action.copy_from_slice(&self.action);
 
-        let fell = self.cfg.termination.enabled && self.has_fallen();
+        self.track_commanded(dt);
+        self.fell = self.has_fallen();
+        let fell = self.cfg.termination.enabled && self.fell;
         let time_out = !fell && self.step_count >= self.cfg.max_episode_steps();
         if self.step_count >= self.next_resample {
             self.sample_command();
@@ -585,6 +596,10 @@ impl Task for RobotEnv {
 
     fn take_physics_ns(&mut self) -> u64 {
         std::mem::take(&mut self.physics_ns)
+    }
+
+    fn curriculum_level(&self) -> Option<f64> {
+        self.terrain.as_ref().filter(|t| t.map.cfg.curriculum.enabled && t.fixed.is_none()).map(|t| t.level as f64)
     }
 
     fn save_state(&self, f: &mut Vec<f64>, u: &mut Vec<u64>) {

@@ -31,6 +31,7 @@ impl RobotEnv {
         if let Some(s) = &self.sim2sim {
             s.save(f, u);
         }
+        self.save_terrain(f, u);
     }
 
     /// How many f64 values `save_snapshot` writes.
@@ -64,6 +65,10 @@ impl RobotEnv {
         let mass = take(nbody)?.to_vec();
         let inertia = take(3 * nbody)?.to_vec();
         let friction = take(ngeom)?.to_vec();
+        // The episode's friction scale, which a ground friction map multiplies, is the floor's over its nominal.
+        let floor = self.idx.floor_geom;
+        let nominal_floor = self.nominal.geom_friction[floor][0];
+        self.friction_scale = if nominal_floor > 0.0 { friction[floor] / nominal_floor } else { 1.0 };
         if mass != self.data.model().body_mass()
             || friction.iter().zip(self.data.model().geom_friction()).any(|(a, g)| *a != g[0])
         {
@@ -109,6 +114,8 @@ impl RobotEnv {
             fi += a;
             need += b;
         }
+        let (a, b) = self.load_terrain(f.get(fi..).unwrap_or(&[]), u.get(need..).unwrap_or(&[]))?;
+        let (fi, need) = (fi + a, need + b);
         // Derived quantities (contacts, velocities) for the observation and the next reward. The forward pass
         // writes into the state itself (it renormalises the base quaternion in place, a last-bit change, and
         // rewrites the warm start), which the uninterrupted run never saw: the saved state goes back afterwards.
