@@ -10,7 +10,9 @@ use topa_env::IntegratorChoice;
 use crate::eval::ablate::{self, Extent};
 use crate::eval::results::Group;
 use crate::eval::settings::{EvalSettings, Sim2SimMode};
-use crate::eval::{course, course_map, endurance, field, heatmaps, noise, push, report, tracking};
+use crate::eval::{
+    course, course_map, endurance, field, heatmaps, noise, push, report, terrain, terrain_map, tracking,
+};
 use topa_env::policy_runner::PolicyRunner;
 
 #[derive(Args, Clone)]
@@ -145,6 +147,25 @@ pub enum EvalCmd {
         #[command(flatten)]
         video: VideoArgs,
     },
+    /// Every terrain type × difficulty (legged_gym's tiles, blind policy), walking and turning at 0.5 m/s from each
+    /// tile's centre: success, progress, tracking MAE, foot slip; a success heatmap (and a video of the hardest
+    /// tile every run walked).
+    Terrain {
+        #[arg(long)]
+        policy: PathBuf,
+        /// Difficulty levels from the easiest to the hardest of the terrain's ranges.
+        #[arg(long, default_value_t = 5)]
+        levels: usize,
+        /// Runs per tile and command (each from its own random heading).
+        #[arg(long, default_value_t = 2)]
+        runs: usize,
+        /// Seconds per run (after settling).
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+        /// Also render a walk over the hardest tile that every run crossed without a fall.
+        #[command(flatten)]
+        video: VideoArgs,
+    },
     /// A long run under an operator-like joystick (speed changes, turns, stops, hand noise, occasional pushes):
     /// interventions and their causes.
     Endurance {
@@ -243,6 +264,29 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             println!("{}", course::markdown(&result));
             println!("map: {}", png.display());
         }
+        EvalCmd::Terrain { policy, levels, runs, seconds, video } => {
+            let mut r = PolicyRunner::load(&policy, "policy")?;
+            let result = terrain::run(&mut r, &s, levels, runs, seconds)?;
+            report::write_json(&c.out, "terrain.json", &result)?;
+            report::write_text(&c.out, "terrain.md", &terrain::markdown(&result))?;
+            let (png, svg) = (c.out.join("terrain_success.png"), c.out.join("terrain_success.svg"));
+            let title = format!("{} ({} sim2sim)", policy.display(), c.sim2sim);
+            terrain_map::success_map(&result, &title, &png, &svg)?;
+            if let Some(file) = &video.video {
+                match hardest_tile(&result) {
+                    Some((kind, level)) => {
+                        let out = terrain_video(&mut r, &s, &result, (kind, level), file, &video)?;
+                        eprintln!("video of {} at difficulty {:.2}: {}", kind.name(), result.terrain.difficulty(level), out.display());
+                    }
+                    None => eprintln!("no video: no tile was crossed by every run without a fall"),
+                }
+            }
+            if c.json {
+                return print_json(&result);
+            }
+            println!("{}", terrain::markdown(&result));
+            println!("heatmap: {}", png.display());
+        }
         EvalCmd::Endurance { policy, minutes, runs } => {
             let mut r = PolicyRunner::load(&policy, "policy")?;
             let result = endurance::run(&mut r, &s, minutes, runs, &endurance::Operator::default())?;
@@ -285,6 +329,65 @@ fn course_video(
     };
     course::run(r, map, s, &[speed], Some(&mut watch))?;
     rec.ok_or_else(|| anyhow::anyhow!("the course run rendered no frame"))?.finish()
+}
+
+/// The hardest tile every run crossed without a fall (ties: the later type, stairs and obstacles before flat):
+/// (type, level).
+fn hardest_tile(r: &terrain::TerrainResult) -> Option<(topa_env::terrain::TileKind, usize)> {
+    let types = &r.terrain.types;
+    let level = |d: f64| (0..r.terrain.levels).find(|&l| r.terrain.difficulty(l) == d).unwrap_or(0);
+    r.success_grid()
+        .into_iter()
+        .filter(|c| c.2 >= 1.0)
+        .map(|(k, d, _)| (k, level(d)))
+        .max_by_key(|&(k, l)| (l, types.iter().position(|&t| t == k)))
+}
+
+/// One walk over a terrain tile, rendered from behind the robot.
+fn terrain_video(
+    r: &mut PolicyRunner,
+    s: &EvalSettings,
+    result: &terrain::TerrainResult,
+    (kind, level): (topa_env::terrain::TileKind, usize),
+    file: &std::path::Path,
+    video: &VideoArgs,
+) -> Result<PathBuf> {
+    use topa_env::Task;
+    let o = video.options()?;
+    let mut cfg = s.env_config(r)?;
+    cfg.terrain = result.terrain.clone();
+    let (_, model) = topa_env::assets::load_robot(&cfg)?;
+    let mut env = topa_env::RobotEnv::new(model, std::sync::Arc::new(cfg.clone()), s.seed, 0)?;
+    let column = cfg.terrain.types.iter().position(|&k| k == kind).unwrap_or(0);
+    env.set_terrain_tile(Some((level, column)))?;
+    let mut obs = vec![0.0; env.obs_dim()];
+    env.reset(&mut obs)?;
+    env.set_command_override(Some([0.0; 3]));
+    let mut rec = crate::video::VideoRecorder::create(
+        file,
+        &env,
+        o.video_size,
+        o.fps,
+        o.quality.unwrap_or(mujoco_sys::render::Quality::Fast),
+    )?;
+    let dt = cfg.policy_dt();
+    let (settle, total) = ((s.settle_s / dt).round() as usize, ((s.settle_s + result.window_s) / dt).round() as usize);
+    let mut actions = Vec::new();
+    for k in 0..total {
+        if k == settle {
+            env.set_command_override(Some(terrain::COMMANDS[0].1));
+        }
+        r.act(&obs, &mut actions);
+        let done = env.step(&actions, &mut obs).done;
+        let t = (k + 1) as f64 * dt;
+        rec.follow(env.indices().torso_body, 2.2, env.robot_state().yaw.to_degrees() + 30.0, -20.0);
+        let text = crate::video::overlay(&env, t);
+        rec.advance(t, &mut env, &text)?;
+        if done {
+            break;
+        }
+    }
+    rec.finish()
 }
 
 /// Policy files of one group: files as given, folders expanded to their `*.json` policies in name order.

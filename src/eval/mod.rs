@@ -21,4 +21,6 @@ pub mod report;
 pub mod results;
 pub mod runner;
 pub mod settings;
+pub mod terrain;
+pub mod terrain_map;
 pub mod tracking;

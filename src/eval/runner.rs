@@ -11,6 +11,10 @@ use topa_env::policy_runner::PolicyRunner;
 
 /// Per-env hooks of an experiment.
 pub trait Experiment {
+    /// Called once per env before the batch's first reset (e.g. to put it on a terrain tile).
+    fn prepare(&mut self, _env: usize, _task: &mut RobotEnv) -> Result<()> {
+        Ok(())
+    }
     /// Called once per env when the window starts (after settling).
     fn setup(&mut self, env: usize, task: &mut RobotEnv);
     /// Called before every policy step of the window (`step` counts from 0) for envs still standing.
@@ -35,6 +39,9 @@ pub fn run_batch(
     label: &str,
 ) -> Result<Vec<Option<f64>>> {
     let mut batch = topa_env::vec_env::robot_batch(cfg, n, settings.seed, 0)?;
+    for (i, t) in batch.tasks_mut().iter_mut().enumerate() {
+        exp.prepare(i, t)?;
+    }
     batch.reset()?;
     for t in batch.tasks_mut() {
         t.set_command_override(Some([0.0; 3]));

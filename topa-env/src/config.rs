@@ -542,6 +542,8 @@ impl EnvConfig {
         c.noise.enabled = false;
         c.domain_rand.enabled = false;
         c.push.enabled = false;
+        // The paper's experiments are on flat ground; `topa eval terrain` puts a terrain back.
+        c.terrain.enabled = false;
         c
     }
 }

@@ -86,8 +86,8 @@ pub struct TerrainConfig {
     pub obstacle_height: [f64; 2],
     /// Side of an obstacle, uniform in this range, m.
     pub obstacle_size: [f64; 2],
-    /// Obstacles per tile.
-    pub obstacles: usize,
+    /// Obstacles per square metre of tile (legged_gym: 20 on an 8 m tile of ANYmal's; ours 20 on a 4 m tile).
+    pub obstacle_density: f64,
     /// Sliding friction of the ground, uniform per tile in this range (the feet take the tile's value).
     pub friction: [f64; 2],
     /// Where robots start and how they move between rows.
@@ -121,7 +121,7 @@ impl Default for TerrainConfig {
             step_width: 0.25,
             obstacle_height: [0.02, 0.08],
             obstacle_size: [0.2, 0.6],
-            obstacles: 20,
+            obstacle_density: 1.25,
             friction: [0.5, 1.0],
             curriculum: CurriculumConfig::default(),
         }
@@ -149,6 +149,10 @@ impl TerrainConfig {
         check(
             self.platform > 0.0 && self.platform < self.tile_size,
             "platform must be positive and smaller than tile_size",
+        )?;
+        check(
+            self.obstacle_density >= 0.0 && self.obstacle_density <= 100.0,
+            "obstacle_density must be in [0, 100] per m²",
         )?;
         check(self.rough_cell >= self.resolution, "rough_cell must be at least the resolution")?;
         check(self.step_width >= self.resolution, "step_width must be at least the resolution")?;

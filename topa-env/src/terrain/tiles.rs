@@ -90,7 +90,8 @@ pub(super) fn generate(kind: TileKind, cfg: &TerrainConfig, d: f64, rng: &mut Ch
     if kind == TileKind::Obstacles {
         let h = lerp(cfg.obstacle_height, d);
         let [lo, hi] = cfg.obstacle_size;
-        for _ in 0..cfg.obstacles {
+        let count = (cfg.obstacle_density * cfg.tile_size * cfg.tile_size).round() as usize;
+        for _ in 0..count {
             let (w, l) = (rng.random_range(lo..=hi), rng.random_range(lo..=hi));
             let (x, y) = (rng.random_range(-half..half - w), rng.random_range(-half..half - l));
             // Raised or sunk, full or half height (legged_gym's discrete obstacles).
