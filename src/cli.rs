@@ -71,6 +71,29 @@ pub enum Cmd {
         /// Add the real-world test of these policies (a field.json written by `topa field`) to the report.
         #[arg(long)]
         field: Option<PathBuf>,
+        /// Add the terrain test (a terrain.json written by `topa terrain`) to the report.
+        #[arg(long)]
+        terrain: Option<PathBuf>,
+        #[command(flatten)]
+        common: eval_cmd::Common,
+    },
+    /// Every policy of O, C and C+A on every terrain type × difficulty (`topa eval terrain` per seed), grouped by
+    /// the ground each was trained on: mean success with its 95 % interval, the hardest difficulty per type.
+    Terrain {
+        #[command(flatten)]
+        groups: eval_cmd::Groups,
+        /// Difficulty levels from the easiest to the hardest of the terrain's ranges.
+        #[arg(long, default_value_t = 5)]
+        levels: usize,
+        /// Runs per tile and command.
+        #[arg(long, default_value_t = 2)]
+        runs: usize,
+        /// Seconds per run.
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+        /// Instead of running policies: join terrain.json files of earlier runs.
+        #[arg(long, num_args = 1.., conflicts_with_all = ["o", "c", "ca"])]
+        merge: Vec<PathBuf>,
         #[command(flatten)]
         common: eval_cmd::Common,
     },
@@ -228,6 +251,9 @@ pub enum BenchCmd {
         /// The policy that walks (and is pushed) in the first workload.
         #[arg(long, default_value = "assets/policies/C/seed1.json")]
         policy: PathBuf,
+        /// On the default rough terrain (`[env.terrain]`) instead of the flat floor.
+        #[arg(long)]
+        terrain: bool,
     },
     /// Training on N MPI ranks vs one rank with the same threads: samples/s, communication share and bytes per
     /// iteration (needs a build with `--features mpi` and Open MPI's mpirun).

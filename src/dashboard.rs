@@ -98,6 +98,7 @@ pub fn panels(groups: &[Group]) -> Vec<Panel> {
     for (title, column, reference) in [
         ("mean episode return", "mean_return", None),
         ("mean episode length (policy steps)", "mean_length", None),
+        ("curriculum level (mean terrain row)", "curriculum_level", None),
         ("value loss", "policy_value_loss", None),
         ("surrogate loss", "policy_surrogate", None),
         ("symmetry loss", "policy_symmetry_loss", None),

@@ -11,7 +11,7 @@ use crate::eval::ablate::{self, Extent};
 use crate::eval::results::Group;
 use crate::eval::settings::{EvalSettings, Sim2SimMode};
 use crate::eval::{
-    course, course_map, endurance, field, heatmaps, noise, push, report, terrain, terrain_map, tracking,
+    course, course_map, endurance, field, heatmaps, noise, push, report, terrain, terrain_map, terrain_report, tracking,
 };
 use topa_env::policy_runner::PolicyRunner;
 
@@ -276,7 +276,12 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
                 match hardest_tile(&result) {
                     Some((kind, level)) => {
                         let out = terrain_video(&mut r, &s, &result, (kind, level), file, &video)?;
-                        eprintln!("video of {} at difficulty {:.2}: {}", kind.name(), result.terrain.difficulty(level), out.display());
+                        eprintln!(
+                            "video of {} at difficulty {:.2}: {}",
+                            kind.name(),
+                            result.terrain.difficulty(level),
+                            out.display()
+                        );
                     }
                     None => eprintln!("no video: no tile was crossed by every run without a fall"),
                 }
@@ -437,22 +442,52 @@ impl Groups {
     }
 }
 
-pub fn run_ablate(groups: Groups, extent: Extent, field: Option<&std::path::Path>, c: Common) -> Result<()> {
+/// Reports attached to an ablation: the real-world test (field.json) and the terrain test (terrain.json).
+type Attached<'a> = [Option<&'a std::path::Path>; 2];
+
+fn attach(a: &mut ablate::Ablation, [field, terrain]: Attached) -> Result<()> {
+    if let Some(f) = field {
+        a.field = Some(field::load(f)?);
+    }
+    if let Some(t) = terrain {
+        a.terrain = Some(terrain_report::merge(&[t.to_path_buf()])?);
+    }
+    Ok(())
+}
+
+pub fn run_ablate(groups: Groups, extent: Extent, attached: Attached, c: Common) -> Result<()> {
     let policies = groups.policies()?;
     extent.check()?;
-    let field = field.map(field::load).transpose()?;
-    let mut a = ablate::run(&policies, &c.settings()?, &extent)?;
-    a.field = field;
+    // Read the attachments first: a bad file fails before hours of evaluation.
+    let mut a = ablate::Ablation {
+        settings: c.settings()?,
+        extent: extent.clone(),
+        results: Vec::new(),
+        field: None,
+        terrain: None,
+    };
+    attach(&mut a, attached)?;
+    let run = ablate::run(&policies, &c.settings()?, &extent)?;
+    a.results = run.results;
     report_ablation(&a, &c)
 }
 
 /// `topa ablate --merge`: the report of several earlier ablations joined.
-pub fn merge_ablations(files: &[PathBuf], field: Option<&std::path::Path>, c: Common) -> Result<()> {
+pub fn merge_ablations(files: &[PathBuf], attached: Attached, c: Common) -> Result<()> {
     let mut a = ablate::merge(files)?;
-    if let Some(f) = field {
-        a.field = Some(field::load(f)?);
-    }
+    attach(&mut a, attached)?;
     report_ablation(&a, &c)
+}
+
+/// `topa terrain`: terrain.{md,json} and the heatmaps in the output folder.
+pub fn report_terrain(r: &terrain_report::TerrainReport, c: &Common) -> Result<()> {
+    let md = terrain_report::write(r, &c.out)?;
+    if c.json {
+        return print_json(r);
+    }
+    println!("{md}");
+    println!("results: {} (terrain.md, terrain.json, one heatmap per policy)", c.out.display());
+    Ok(())
 }
 
 /// A sim2sim mode in a comma-separated list.

@@ -23,16 +23,25 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             eval_cmd::run_eval(cmd, common)
         }
-        Cmd::Ablate { merge, field, common, .. } if !merge.is_empty() => {
-            eval_cmd::merge_ablations(&merge, field.as_deref(), common)
+        Cmd::Ablate { merge, field, terrain, common, .. } if !merge.is_empty() => {
+            eval_cmd::merge_ablations(&merge, [field.as_deref(), terrain.as_deref()], common)
         }
-        Cmd::Ablate { groups, full, push_range, push_step, tracking_starts, field, common, .. } => {
+        Cmd::Ablate { groups, full, push_range, push_step, tracking_starts, field, terrain, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let mut extent = if full { Extent::full() } else { Extent::quick() };
             extent.push_range_n = push_range.unwrap_or(extent.push_range_n);
             extent.push_step_n = push_step.unwrap_or(extent.push_step_n);
             extent.tracking_starts = tracking_starts.unwrap_or(extent.tracking_starts);
-            eval_cmd::run_ablate(groups, extent, field.as_deref(), common)
+            eval_cmd::run_ablate(groups, extent, [field.as_deref(), terrain.as_deref()], common)
+        }
+        Cmd::Terrain { merge, common, .. } if !merge.is_empty() => {
+            eval_cmd::report_terrain(&topa::eval::terrain_report::merge(&merge)?, &common)
+        }
+        Cmd::Terrain { groups, levels, runs, seconds, common, .. } => {
+            trainer::nn::init_threads(resolve_threads(common.threads))?;
+            let policies = groups.policies()?;
+            let r = topa::eval::terrain_report::run(&policies, &common.settings()?, levels, runs, seconds)?;
+            eval_cmd::report_terrain(&r, &common)
         }
         Cmd::Sysid(cmd) => topa::sysid_cmd::run(cmd),
         Cmd::Field { merge, common, .. } if !merge.is_empty() => eval_cmd::merge_field(&merge, common),
@@ -129,7 +138,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Bench(BenchCmd::Mpi { config, ranks, iterations, warmup, rounds, mpirun }) => {
             bench::mpi::run(&bench::mpi::Args { config: &config, ranks, iterations, warmup, rounds, mpirun: &mpirun })
         }
-        Cmd::Bench(BenchCmd::Memory { envs, steps, policy }) => bench::memory::run(envs, steps, &policy),
+        Cmd::Bench(BenchCmd::Memory { envs, steps, policy, terrain }) => {
+            bench::memory::run(envs, steps, &policy, terrain)
+        }
         Cmd::Bench(BenchCmd::Train { config, threads, envs, iterations, warmup, integrator, rounds, worker }) => {
             let a =
                 bench::train::Args { config: &config, threads: &threads, envs, iterations, warmup, integrator, rounds };

@@ -64,8 +64,9 @@ fn measure(cfg: &EnvConfig, n: usize, steps: usize, policy: Option<&mut Policy>,
     Ok(u)
 }
 
-pub fn run(envs: usize, steps: usize, policy: &std::path::Path) -> Result<()> {
+pub fn run(envs: usize, steps: usize, policy: &std::path::Path, terrain: bool) -> Result<()> {
     let mut cfg = EnvConfig { robot: ModelKind::Closed.spec_path().into(), ..EnvConfig::default() };
+    cfg.terrain.enabled = terrain;
     // The training preset's physics and the paper's pushes (up to 2.5 m/s): the hardest contacts training sees.
     cfg.integrator = topa_env::IntegratorChoice::Euler;
     let (rss0, faults0) = rss_and_faults();
@@ -79,7 +80,8 @@ pub fn run(envs: usize, steps: usize, policy: &std::path::Path) -> Result<()> {
     let data_bytes = t.data().memory_bytes();
     let m = t.data().model().raw();
     let (nstack, nconmax, njmax) = (m.nstack as usize, m.nconmax as usize, m.njmax as usize);
-    println!("{envs} TopA envs (closed model, domain randomisation on: each env owns its model copy)\n");
+    let ground = if terrain { "on the default terrain" } else { "on the flat floor" };
+    println!("{envs} TopA envs (closed model {ground}, domain randomisation on: each env owns its model copy)\n");
     println!("| per env | bytes |");
     println!("|---|---:|");
     println!("| model copy (mjModel + buffer) | {model_bytes} |");

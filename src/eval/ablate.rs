@@ -98,6 +98,9 @@ pub struct Ablation {
     /// The real-world test of the same policies (`topa field`), when attached with `--field`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub field: Option<super::field::Field>,
+    /// The terrain test of these or other policies (`topa terrain`), when attached with `--terrain`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub terrain: Option<super::terrain_report::TerrainReport>,
 }
 
 /// Runs every experiment for each (group, policy file).
@@ -125,12 +128,12 @@ pub fn run(policies: &[(Group, PathBuf)], settings: &EvalSettings, extent: &Exte
             noise,
         });
     }
-    Ok(Ablation { settings: settings.clone(), extent: extent.clone(), results, field: None })
+    Ok(Ablation { settings: settings.clone(), extent: extent.clone(), results, field: None, terrain: None })
 }
 
 /// Joins ablations written by earlier runs (`ablation.json`: one per policy, per machine or per session — each
 /// policy's numbers do not depend on the others, its noise streams come from the seed alone) into one; one file is
-/// rendered again (to attach a field test to it). Refused
+/// rendered again (to attach a field or terrain test to it); the first file's attachments are kept. Refused
 /// when a file is not an ablation, when the protocols or evaluation settings differ (thread count aside: results do
 /// not depend on it), or when one policy file appears twice (it would count as two seeds).
 pub fn merge(files: &[PathBuf]) -> Result<Ablation> {
@@ -172,7 +175,9 @@ pub fn merge(files: &[PathBuf]) -> Result<Ablation> {
         }
     }
     results.sort_by_key(|r| r.name); // the report's order: O, C, CA
-    Ok(Ablation { settings: first.settings.clone(), extent: first.extent.clone(), results, field: None })
+                                     // Attached reports stay with the report they were attached to (the first file's); --field / --terrain replace them.
+    let (field, terrain) = (first.field.clone(), first.terrain.clone());
+    Ok(Ablation { settings: first.settings.clone(), extent: first.extent.clone(), results, field, terrain })
 }
 
 /// The Markdown report: the groups' headline numbers, tracking, gait, and every policy's own row.
@@ -198,10 +203,13 @@ pub fn markdown(a: &Ablation) -> Result<String> {
             a.extent.describe()
         )
     };
-    let field = match field_section(a)? {
+    let mut field = match field_section(a)? {
         f if f.is_empty() => f,
         f => format!("## The paper's real-world test, in simulation\n\n{f}\n"),
     };
+    if let Some(t) = &a.terrain {
+        field.push_str(&format!("## Terrain\n\n{}\n", super::terrain_report::markdown(t)));
+    }
     Ok(format!(
         "{protocol}\n\n## Headline numbers\n\n{grid_note}{}\n## The paper's claims and the bars, checked\n\n{}\n## Commanded velocity \
          tracking\n{}\n## Gait\n\n{}\n## Intervals\n\n{}\n## Each policy\n\n{}",
@@ -238,7 +246,8 @@ pub fn section(a: &Ablation, kind: &str) -> Result<String> {
             Some(f) => super::field::markdown(f, &paper),
             None => String::new(),
         }),
-        _ => anyhow::bail!("no report section {kind:?}: use headline, claims, summary, field or field_tables"),
+        "terrain" => Ok(a.terrain.as_ref().map_or(String::new(), super::terrain_report::markdown)),
+        _ => anyhow::bail!("no report section {kind:?}: use headline, claims, summary, field, field_tables or terrain"),
     }
 }
 
@@ -367,7 +376,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let settings = EvalSettings { threads: 1, ..Default::default() };
         let write = |file: &str, extent: Extent, results: Vec<PolicyResults>| {
-            let a = Ablation { settings: settings.clone(), extent, results, field: None };
+            let a = Ablation { settings: settings.clone(), extent, results, field: None, terrain: None };
             report::write_json(&dir, file, &a).unwrap();
             dir.join(file)
         };
@@ -376,8 +385,13 @@ mod tests {
         // Thread count may differ: results do not depend on it.
         let mut more = settings.clone();
         more.threads = 2;
-        let c2_ablation =
-            Ablation { settings: more, extent: Extent::full(), results: vec![one("C", "c2.json", 7.0)], field: None };
+        let c2_ablation = Ablation {
+            settings: more,
+            extent: Extent::full(),
+            results: vec![one("C", "c2.json", 7.0)],
+            field: None,
+            terrain: None,
+        };
         report::write_json(&dir, "c2.json", &c2_ablation).unwrap();
         let m = merge(&[ca.clone(), c.clone(), dir.join("c2.json")]).unwrap();
         let order: Vec<(&str, &str)> = m.results.iter().map(|r| (r.name.key(), r.policy.to_str().unwrap())).collect();
@@ -408,8 +422,13 @@ mod tests {
         assert!(err(&[c.clone(), quick]).contains("another protocol"));
         let mut other = settings.clone();
         other.seed = 2;
-        let s2 =
-            Ablation { settings: other, extent: Extent::full(), results: vec![one("C", "c4.json", 7.0)], field: None };
+        let s2 = Ablation {
+            settings: other,
+            extent: Extent::full(),
+            results: vec![one("C", "c4.json", 7.0)],
+            field: None,
+            terrain: None,
+        };
         report::write_json(&dir, "seed2.json", &s2).unwrap();
         assert!(err(&[c.clone(), dir.join("seed2.json")]).contains("other evaluation settings"));
         assert!(err(&[c.clone(), c.clone()]).contains("c1.json is in more than one file"));

@@ -23,4 +23,5 @@ pub mod runner;
 pub mod settings;
 pub mod terrain;
 pub mod terrain_map;
+pub mod terrain_report;
 pub mod tracking;

@@ -191,7 +191,9 @@ pub fn run(
                     runs,
                     success: ids.iter().filter(|&&i| fell[i].is_none()).count() as f64 / runs as f64,
                     progress: mean(&|i| Some(exp.covered[i] / commanded)),
-                    mae: mean(&|i| (exp.steps[i] > 0).then(|| exp.abs_err[i].iter().sum::<f64>() / 3.0 / exp.steps[i] as f64)),
+                    mae: mean(&|i| {
+                        (exp.steps[i] > 0).then(|| exp.abs_err[i].iter().sum::<f64>() / 3.0 / exp.steps[i] as f64)
+                    }),
                     foot_slip: mean(&|i| (exp.slip[i].1 > 0).then(|| exp.slip[i].0 / exp.slip[i].1 as f64)),
                 });
             }

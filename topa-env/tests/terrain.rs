@@ -136,4 +136,3 @@ fn an_env_on_terrain_resumes_bit_for_bit() {
     assert_eq!((nf, nu), (f.len(), u.len()));
     assert_eq!(run(&mut b, &mut obs_b, 60), expected);
 }
-

@@ -96,7 +96,9 @@ impl RobotEnv {
     /// is no terrain or no such tile.
     pub fn set_terrain_tile(&mut self, tile: Option<(usize, usize)>) -> crate::error::Result<()> {
         let Some(t) = &mut self.terrain else {
-            return Err(crate::error::EnvError::Config("this env has no terrain ([env.terrain] enabled = false)".into()));
+            return Err(crate::error::EnvError::Config(
+                "this env has no terrain ([env.terrain] enabled = false)".into(),
+            ));
         };
         if let Some((l, c)) = tile {
             if l >= t.map.cfg.levels || c >= t.map.cfg.types.len() {

@@ -14,8 +14,8 @@ use rand_chacha::ChaCha8Rng;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-pub use mjcf::TERRAIN_NAME;
 pub use curriculum::{level_change, next_level, CurriculumConfig, LevelChange};
+pub use mjcf::TERRAIN_NAME;
 
 use crate::error::{EnvError, Result};
 use crate::world::FrictionMap;
@@ -225,15 +225,7 @@ impl Terrain {
         let nx = (w / cfg.resolution).round() as usize + 1;
         let ny = (h / cfg.resolution).round() as usize + 1;
         let (dx, dy) = (w / (nx - 1) as f64, h / (ny - 1) as f64);
-        let mut t = Terrain {
-            cfg: cfg.clone(),
-            nx,
-            ny,
-            dx,
-            dy,
-            heights: vec![0.0; nx * ny],
-            friction: Vec::new(),
-        };
+        let mut t = Terrain { cfg: cfg.clone(), nx, ny, dx, dy, heights: vec![0.0; nx * ny], friction: Vec::new() };
         let cols = cfg.types.len();
         for level in 0..cfg.levels {
             for (col, &kind) in cfg.types.iter().enumerate() {

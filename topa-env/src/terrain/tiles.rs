@@ -15,9 +15,14 @@ fn lerp([a, b]: [f64; 2], d: f64) -> f64 {
 enum Shape {
     Flat,
     /// Height grows by `rise` per metre inwards (negative: a pit).
-    Pyramid { rise: f64 },
+    Pyramid {
+        rise: f64,
+    },
     /// One `step` per `tread` inwards (negative: stairs down into a pit).
-    Stairs { step: f64, tread: f64 },
+    Stairs {
+        step: f64,
+        tread: f64,
+    },
 }
 
 /// Random heights on a coarse square grid, interpolated.
@@ -58,9 +63,12 @@ impl Tile {
         }
         let on_platform = u.abs() < self.platform_half && v.abs() < self.platform_half;
         if !on_platform {
-            if let Some((_, _, oh)) = self.obstacles.iter().rev().find(|(lo, hi, _)| {
-                (lo[0]..hi[0]).contains(&u) && (lo[1]..hi[1]).contains(&v)
-            }) {
+            if let Some((_, _, oh)) = self
+                .obstacles
+                .iter()
+                .rev()
+                .find(|(lo, hi, _)| (lo[0]..hi[0]).contains(&u) && (lo[1]..hi[1]).contains(&v))
+            {
                 h += oh;
             }
         }
