@@ -58,6 +58,8 @@ pub struct EnvConfig {
     pub adversary: AdversaryBounds,
     /// Rough terrain instead of the flat floor (default off: the paper's flat ground).
     pub terrain: crate::terrain::TerrainConfig,
+    /// Ground heights around the robot as extra observation values (default off: the paper's blind policy).
+    pub height_scan: crate::terrain::HeightScanConfig,
 }
 
 /// What is trained.
@@ -122,6 +124,7 @@ impl Default for EnvConfig {
             sim2sim: Default::default(),
             adversary: AdversaryBounds::default(),
             terrain: crate::terrain::TerrainConfig::default(),
+            height_scan: crate::terrain::HeightScanConfig::default(),
         }
     }
 }
@@ -512,6 +515,7 @@ impl EnvConfig {
         }
         self.sim2sim.validate().map_err(EnvError::Config)?;
         self.terrain.validate()?;
+        self.height_scan.validate()?;
         Ok(())
     }
 

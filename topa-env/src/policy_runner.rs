@@ -58,7 +58,10 @@ impl PolicyRunner {
             None => (trained_on.clone(), trained_model),
         };
         let n = robot.n_motors();
-        let layout = ObsLayout::new(n);
+        // The observation the policy was trained on: the paper's, and a height scan if its config had one.
+        let trained = crate::EnvConfig::from_table(&m.provenance.config.env)
+            .map_err(|e| anyhow::anyhow!("{}: its training config: {e}", path.display()))?;
+        let layout = ObsLayout::new(n).with_scan(trained.height_scan.grid());
         if m.obs_dim != layout.dim() || m.action_dim != n {
             bail!(
                 "{}: a {}→{} policy cannot drive {} ({} observations → {n} motor targets)",

@@ -22,6 +22,10 @@ pub fn for_layout(layout: &ObsLayout, motor_perm: &[usize], motor_sign: &[f32]) 
             Mirror::PseudoVector => obs.set_block(offset, &id3, &PSEUDO_SIGN),
             Mirror::Command => obs.set_block(offset, &id3, &CMD_SIGN),
             Mirror::Motors => obs.set_block(offset, motor_perm, motor_sign),
+            Mirror::Scan => {
+                let perm = layout.scan_mirror();
+                obs.set_block(offset, &perm, &vec![1.0; perm.len()]);
+            }
         }
     }
     let mut act = SignedPermutation::identity(layout.n_motors);

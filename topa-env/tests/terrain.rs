@@ -136,3 +136,44 @@ fn an_env_on_terrain_resumes_bit_for_bit() {
     assert_eq!((nf, nu), (f.len(), u.len()));
     assert_eq!(run(&mut b, &mut obs_b, 60), expected);
 }
+
+#[test]
+fn the_height_scan_reads_the_ground_around_the_robot_in_its_heading_frame() {
+    let mut cfg = on_terrain(4);
+    cfg.height_scan.enabled = true;
+    let map = Terrain::shared(&cfg.terrain).unwrap();
+    let mut e = env(&cfg, 0);
+    let (nx, ny) = cfg.height_scan.grid();
+    assert_eq!(e.obs_dim(), 42 + nx * ny);
+    let col = column(&cfg, TileKind::StairsDown);
+    e.set_terrain_tile(Some((3, col))).unwrap();
+    let mut obs = vec![0.0; e.obs_dim()];
+    e.reset(&mut obs).unwrap();
+    // Put the base over the stairs' flank, heading 30° off +x, 0.6 m above the local ground.
+    let c = map.tile_center(3, col);
+    let (x0, y0, yaw) = (c[0] + 1.1, c[1] - 0.2, 30f64.to_radians());
+    let z0 = map.height_at(x0, y0) + 0.6;
+    let b = e.indices().base_qpos;
+    let q = e.data_mut().qpos_mut();
+    q[b..b + 7].copy_from_slice(&[x0, y0, z0, (yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()]);
+    e.refresh(&mut obs).unwrap();
+    let target = e.base_height_target();
+    let mut k = 42;
+    let mut spread = (f64::INFINITY, f64::NEG_INFINITY);
+    for &x in &cfg.height_scan.x {
+        for &y in &cfg.height_scan.y {
+            let (px, py) = (x0 + yaw.cos() * x - yaw.sin() * y, y0 + yaw.sin() * x + yaw.cos() * y);
+            let want = (z0 - map.height_at(px, py) - target).clamp(-1.0, 1.0);
+            assert!((obs[k] as f64 - want).abs() < 1e-5, "point ({x}, {y}): {} vs {want}", obs[k]);
+            spread = (spread.0.min(want), spread.1.max(want));
+            k += 1;
+        }
+    }
+    assert!(spread.1 - spread.0 > 0.15, "the scan crosses several steps: {spread:?}");
+    // The mirror maps swap the scan's left and right points.
+    let sym = e.symmetry().unwrap();
+    let mirrored: Vec<f32> = (0..obs.len()).map(|i| sym.obs.sign[i] * obs[sym.obs.perm[i]]).collect();
+    assert_eq!(mirrored[42], obs[42 + ny - 1]);
+    // Flat-trained configs are unchanged: no scan, 42 values.
+    assert_eq!(env(&on_terrain(4), 0).obs_dim(), 42);
+}

@@ -161,7 +161,7 @@ impl RobotEnv {
         };
         Ok(RobotEnv {
             data: Data::new(model)?,
-            layout: idx.obs_layout(),
+            layout: idx.obs_layout().with_scan(cfg.height_scan.grid()),
             action: vec![0.0; n],
             target: vec![0.0; n],
             motors,
@@ -338,6 +338,7 @@ impl RobotEnv {
         for i in 0..3 {
             obs[co + i] = c[i] as f32;
         }
+        self.write_height_scan(obs);
     }
 
     fn apply_forces(&mut self) {

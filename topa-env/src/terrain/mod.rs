@@ -5,6 +5,7 @@
 
 mod curriculum;
 mod mjcf;
+mod scan;
 mod tiles;
 
 use std::sync::{Arc, Mutex, Weak};
@@ -16,6 +17,7 @@ use serde::{Deserialize, Serialize};
 
 pub use curriculum::{level_change, next_level, CurriculumConfig, LevelChange};
 pub use mjcf::TERRAIN_NAME;
+pub use scan::HeightScanConfig;
 
 use crate::error::{EnvError, Result};
 use crate::world::FrictionMap;

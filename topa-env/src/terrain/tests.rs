@@ -103,3 +103,16 @@ fn the_curriculum_moves_up_after_walking_far_and_down_after_falling_or_lagging()
     let solved: Vec<usize> = (0..50).map(|_| next_level(9, 10, LevelChange::Up, &mut rng)).collect();
     assert!(solved.iter().all(|&l| l < 10) && solved.iter().any(|&l| l < 9));
 }
+
+#[test]
+fn a_height_scan_must_mirror_onto_itself() {
+    let on = HeightScanConfig { enabled: true, ..Default::default() };
+    assert!(on.validate().is_ok());
+    assert_eq!(on.grid(), (7, 5));
+    let lopsided = HeightScanConfig { y: vec![-0.3, 0.0, 0.2], ..on.clone() };
+    let e = lopsided.validate().unwrap_err().to_string();
+    assert!(e.contains("height_scan") && e.contains("symmetric"), "{e}");
+    let empty = HeightScanConfig { x: vec![], ..on };
+    assert!(empty.validate().unwrap_err().to_string().contains("points"));
+    assert_eq!(HeightScanConfig::default().grid(), (0, 0), "off: no values");
+}
