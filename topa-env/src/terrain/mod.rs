@@ -284,7 +284,7 @@ impl Terrain {
         let (b, l) = (self.cfg.border, self.cfg.tile_size);
         let (fx, fy) = ((x - b) / l, (y - b) / l);
         (fx >= 0.0 && fy >= 0.0 && (fx as usize) < self.cfg.levels && (fy as usize) < self.cfg.types.len())
-            .then(|| (fx as usize, fy as usize))
+            .then_some((fx as usize, fy as usize))
     }
 
     /// Ground height at (x, y), m: bilinear between samples (MuJoCo draws two triangles per cell, so this is

@@ -50,7 +50,12 @@ impl HeightScanConfig {
         if !sorted || (0..n).any(|i| (self.y[i] + self.y[n - 1 - i]).abs() > 1e-9) {
             return bad("y must be ascending and symmetric about 0 (e.g. [-0.3, 0, 0.3]): the mirror swaps its points");
         }
-        if self.x.iter().chain(&self.y).any(|v| !v.is_finite()) || !(self.clip > 0.0) || !(self.noise >= 0.0) {
+        if self.x.iter().chain(&self.y).any(|v| !v.is_finite())
+            || self.clip.is_nan()
+            || self.clip <= 0.0
+            || self.noise.is_nan()
+            || self.noise < 0.0
+        {
             return bad("x, y must be finite, clip positive and noise ≥ 0");
         }
         Ok(())
