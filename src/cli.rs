@@ -91,6 +91,8 @@ pub enum Cmd {
         /// Seconds per run.
         #[arg(long, default_value_t = 10.0)]
         seconds: f64,
+        #[command(flatten)]
+        tiles: eval_cmd::TileArgs,
         /// Instead of running policies: join terrain.json files of earlier runs.
         #[arg(long, num_args = 1.., conflicts_with_all = ["o", "c", "ca"])]
         merge: Vec<PathBuf>,

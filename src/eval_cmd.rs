@@ -162,6 +162,8 @@ pub enum EvalCmd {
         /// Seconds per run (after settling).
         #[arg(long, default_value_t = 10.0)]
         seconds: f64,
+        #[command(flatten)]
+        tiles: TileArgs,
         /// Also render a walk over the hardest tile that every run crossed without a fall.
         #[command(flatten)]
         video: VideoArgs,
@@ -264,9 +266,9 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             println!("{}", course::markdown(&result));
             println!("map: {}", png.display());
         }
-        EvalCmd::Terrain { policy, levels, runs, seconds, video } => {
+        EvalCmd::Terrain { policy, levels, runs, seconds, tiles, video } => {
             let mut r = PolicyRunner::load(&policy, "policy")?;
-            let result = terrain::run(&mut r, &s, levels, runs, seconds)?;
+            let result = terrain::run(&mut r, &s, &tiles.protocol(levels, runs, seconds))?;
             report::write_json(&c.out, "terrain.json", &result)?;
             report::write_text(&c.out, "terrain.md", &terrain::markdown(&result))?;
             let (png, svg) = (c.out.join("terrain_success.png"), c.out.join("terrain_success.svg"));
@@ -439,6 +441,23 @@ impl Groups {
             policies.extend(policy_files(flag, &paths)?.into_iter().map(|p| (group, p)));
         }
         Ok(policies)
+    }
+}
+
+/// Which tiles the terrain test uses.
+#[derive(Args, Clone, Debug)]
+pub struct TileArgs {
+    /// Only these tile types, comma-separated (default: the terrain's), e.g. stairs_up,stairs_down.
+    #[arg(long, value_delimiter = ',')]
+    pub types: Vec<topa_env::terrain::TileKind>,
+    /// Height samples this far apart instead of the terrain's, m (a finer field has steeper stair risers).
+    #[arg(long)]
+    pub resolution: Option<f64>,
+}
+
+impl TileArgs {
+    pub fn protocol(self, levels: usize, runs: usize, window_s: f64) -> terrain::Protocol {
+        terrain::Protocol { levels, runs, window_s, types: self.types, resolution: self.resolution }
     }
 }
 

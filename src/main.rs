@@ -37,10 +37,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Terrain { merge, common, .. } if !merge.is_empty() => {
             eval_cmd::report_terrain(&topa::eval::terrain_report::merge(&merge)?, &common)
         }
-        Cmd::Terrain { groups, levels, runs, seconds, common, .. } => {
+        Cmd::Terrain { groups, levels, runs, seconds, tiles, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let policies = groups.policies()?;
-            let r = topa::eval::terrain_report::run(&policies, &common.settings()?, levels, runs, seconds)?;
+            let p = tiles.protocol(levels, runs, seconds);
+            let r = topa::eval::terrain_report::run(&policies, &common.settings()?, &p)?;
             eval_cmd::report_terrain(&r, &common)
         }
         Cmd::Sysid(cmd) => topa::sysid_cmd::run(cmd),

@@ -17,7 +17,8 @@ fn c_policy() -> PolicyRunner {
 fn a_flat_policy_walks_flat_tiles_and_not_the_hardest_stairs_up() {
     let mut r = c_policy();
     let settings = EvalSettings { settle_s: 0.5, ..Default::default() };
-    let res = terrain::run(&mut r, &settings, 2, 1, 3.0).unwrap();
+    let p = terrain::Protocol { levels: 2, runs: 1, window_s: 3.0, ..Default::default() };
+    let res = terrain::run(&mut r, &settings, &p).unwrap();
     let types = res.terrain.types.len();
     assert_eq!(res.cells.len(), types * 2 * terrain::COMMANDS.len());
     assert!(res.terrain.tile_size >= 2.0 * 0.5 * 3.0, "a run stays on its tile");
@@ -46,8 +47,11 @@ fn a_flat_policy_walks_flat_tiles_and_not_the_hardest_stairs_up() {
 fn bad_terrain_evaluations_are_refused() {
     let mut r = c_policy();
     let s = EvalSettings::default();
-    let e = terrain::run(&mut r, &s, 1, 1, 1.0).unwrap_err().to_string();
+    let p = terrain::Protocol::default();
+    let e = terrain::run(&mut r, &s, &terrain::Protocol { levels: 1, ..p.clone() }).unwrap_err().to_string();
     assert!(e.contains("--levels"), "{e}");
-    let e = terrain::run(&mut r, &s, 3, 0, 1.0).unwrap_err().to_string();
+    let e = terrain::run(&mut r, &s, &terrain::Protocol { runs: 0, ..p.clone() }).unwrap_err().to_string();
     assert!(e.contains("--runs"), "{e}");
+    let e = terrain::run(&mut r, &s, &terrain::Protocol { resolution: Some(0.0), ..p }).unwrap_err().to_string();
+    assert!(e.contains("resolution"), "{e}");
 }

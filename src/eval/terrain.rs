@@ -69,18 +69,41 @@ impl TerrainResult {
     }
 }
 
+/// What `topa eval terrain` runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Protocol {
+    /// Difficulty levels from the easiest to the hardest of the terrain's ranges.
+    pub levels: usize,
+    /// Runs per tile and command.
+    pub runs: usize,
+    /// Seconds per run.
+    pub window_s: f64,
+    /// Only these tile types (empty: the terrain's).
+    pub types: Vec<TileKind>,
+    /// Height samples this far apart instead of the terrain's, m (a finer field has steeper stair risers).
+    pub resolution: Option<f64>,
+}
+
+impl Default for Protocol {
+    fn default() -> Self {
+        Protocol { levels: 5, runs: 2, window_s: 10.0, types: Vec::new(), resolution: None }
+    }
+}
+
 /// The evaluation's terrain: the training terrain's types and parameters (or the defaults for a flat-trained
 /// policy) on `levels` rows spanning the same difficulties, tiles large enough for a `window_s` run at 0.5 m/s,
 /// at nominal friction, started at each tile's centre.
-pub fn evaluation_terrain(train: &EnvConfig, levels: usize, window_s: f64) -> TerrainConfig {
+pub fn evaluation_terrain(train: &EnvConfig, p: &Protocol) -> TerrainConfig {
     let base = if train.terrain.enabled { train.terrain.clone() } else { TerrainConfig::default() };
-    let reach = COMMANDS.iter().map(|(_, c)| c[0].hypot(c[1])).fold(0.0, f64::max) * window_s;
+    let reach = COMMANDS.iter().map(|(_, c)| c[0].hypot(c[1])).fold(0.0, f64::max) * p.window_s;
     let mut t = TerrainConfig {
         enabled: true,
-        levels,
+        levels: p.levels,
         tile_size: base.tile_size.max(2.0 * (reach + 1.0)),
         border: 1.0,
         friction: [NOMINAL_FRICTION, NOMINAL_FRICTION],
+        types: if p.types.is_empty() { base.types.clone() } else { p.types.clone() },
+        resolution: p.resolution.unwrap_or(base.resolution),
         ..base
     };
     t.curriculum.enabled = false;
@@ -130,19 +153,15 @@ impl Experiment for Walk {
     }
 }
 
-/// Every type × `levels` difficulties × both commands × `runs` starts, `window_s` each.
-pub fn run(
-    runner: &mut PolicyRunner,
-    settings: &EvalSettings,
-    levels: usize,
-    runs: usize,
-    window_s: f64,
-) -> Result<TerrainResult> {
+/// Every type × `levels` difficulties × both commands × `runs` starts, `window_s` each (the protocol's).
+pub fn run(runner: &mut PolicyRunner, settings: &EvalSettings, p: &Protocol) -> Result<TerrainResult> {
+    let (levels, runs, window_s) = (p.levels, p.runs, p.window_s);
     anyhow::ensure!(levels >= 2, "terrain evaluation needs at least 2 difficulty levels (--levels ≥ 2)");
     anyhow::ensure!(runs >= 1, "terrain evaluation needs at least one run per cell (--runs ≥ 1)");
+    anyhow::ensure!(window_s > 0.0, "terrain evaluation needs a positive run length (--seconds)");
     let mut cfg = settings.env_config(runner)?;
     let train = EnvConfig::from_table(&runner.policy.meta.provenance.config.env)?;
-    cfg.terrain = evaluation_terrain(&train, levels, window_s);
+    cfg.terrain = evaluation_terrain(&train, p);
     cfg.validate()?;
     let types = cfg.terrain.types.clone();
     let mut tiles = Vec::new();

@@ -36,20 +36,15 @@ pub struct TerrainReport {
 }
 
 /// Runs the terrain evaluation of every (group, policy).
-pub fn run(
-    policies: &[(Group, PathBuf)],
-    settings: &EvalSettings,
-    levels: usize,
-    runs: usize,
-    window_s: f64,
-) -> Result<TerrainReport> {
+pub fn run(policies: &[(Group, PathBuf)], settings: &EvalSettings, p: &terrain::Protocol) -> Result<TerrainReport> {
     ensure!(!policies.is_empty(), "give at least one policy with --o, --c or --ca");
+    let (levels, runs, window_s) = (p.levels, p.runs, p.window_s);
     let mut entries = Vec::new();
     for (group, path) in policies {
         let mut r = PolicyRunner::load(path, group.label())?;
         let trained_on_terrain = EnvConfig::from_table(&r.policy.meta.provenance.config.env)?.terrain.enabled;
         eprintln!("{}: {} (trained on {})", group.label(), path.display(), ground(trained_on_terrain));
-        let result = terrain::run(&mut r, settings, levels, runs, window_s)?;
+        let result = terrain::run(&mut r, settings, p)?;
         entries.push(TerrainEntry { group: *group, policy: path.clone(), trained_on_terrain, result });
     }
     Ok(TerrainReport { levels, runs, window_s, entries })

@@ -37,7 +37,28 @@ pub enum TileKind {
     Obstacles,
 }
 
+impl std::str::FromStr for TileKind {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        TileKind::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| {
+            let names: Vec<&str> = TileKind::ALL.iter().map(|k| k.name()).collect();
+            format!("no tile type '{s}': use one of {}", names.join(", "))
+        })
+    }
+}
+
 impl TileKind {
+    pub const ALL: [TileKind; 8] = [
+        TileKind::Flat,
+        TileKind::Rough,
+        TileKind::SlopeUp,
+        TileKind::SlopeDown,
+        TileKind::RoughSlope,
+        TileKind::StairsUp,
+        TileKind::StairsDown,
+        TileKind::Obstacles,
+    ];
+
     pub fn name(self) -> &'static str {
         match self {
             TileKind::Flat => "flat",
@@ -101,16 +122,7 @@ impl Default for TerrainConfig {
         TerrainConfig {
             enabled: false,
             seed: 0,
-            types: vec![
-                TileKind::Flat,
-                TileKind::Rough,
-                TileKind::SlopeUp,
-                TileKind::SlopeDown,
-                TileKind::RoughSlope,
-                TileKind::StairsUp,
-                TileKind::StairsDown,
-                TileKind::Obstacles,
-            ],
+            types: TileKind::ALL.to_vec(),
             levels: 10,
             tile_size: 4.0,
             border: 3.0,
