@@ -82,17 +82,8 @@ pub enum Cmd {
     Terrain {
         #[command(flatten)]
         groups: eval_cmd::Groups,
-        /// Difficulty levels from the easiest to the hardest of the terrain's ranges.
-        #[arg(long, default_value_t = 5)]
-        levels: usize,
-        /// Runs per tile and command.
-        #[arg(long, default_value_t = 2)]
-        runs: usize,
-        /// Seconds per run.
-        #[arg(long, default_value_t = 10.0)]
-        seconds: f64,
         #[command(flatten)]
-        tiles: eval_cmd::TileArgs,
+        protocol: eval_cmd::TerrainArgs,
         /// Instead of running policies: join terrain.json files of earlier runs.
         #[arg(long, num_args = 1.., conflicts_with_all = ["o", "c", "ca"])]
         merge: Vec<PathBuf>,

@@ -153,17 +153,8 @@ pub enum EvalCmd {
     Terrain {
         #[arg(long)]
         policy: PathBuf,
-        /// Difficulty levels from the easiest to the hardest of the terrain's ranges.
-        #[arg(long, default_value_t = 5)]
-        levels: usize,
-        /// Runs per tile and command (each from its own random heading).
-        #[arg(long, default_value_t = 2)]
-        runs: usize,
-        /// Seconds per run (after settling).
-        #[arg(long, default_value_t = 10.0)]
-        seconds: f64,
         #[command(flatten)]
-        tiles: TileArgs,
+        protocol: TerrainArgs,
         /// Also render a walk over the hardest tile that every run crossed without a fall.
         #[command(flatten)]
         video: VideoArgs,
@@ -266,9 +257,9 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             println!("{}", course::markdown(&result));
             println!("map: {}", png.display());
         }
-        EvalCmd::Terrain { policy, levels, runs, seconds, tiles, video } => {
+        EvalCmd::Terrain { policy, protocol, video } => {
             let mut r = PolicyRunner::load(&policy, "policy")?;
-            let result = terrain::run(&mut r, &s, &tiles.protocol(levels, runs, seconds))?;
+            let result = terrain::run(&mut r, &s, &protocol.protocol())?;
             report::write_json(&c.out, "terrain.json", &result)?;
             report::write_text(&c.out, "terrain.md", &terrain::markdown(&result))?;
             let (png, svg) = (c.out.join("terrain_success.png"), c.out.join("terrain_success.svg"));
@@ -444,9 +435,18 @@ impl Groups {
     }
 }
 
-/// Which tiles the terrain test uses.
+/// The terrain test's protocol.
 #[derive(Args, Clone, Debug)]
-pub struct TileArgs {
+pub struct TerrainArgs {
+    /// Difficulty levels from the easiest to the hardest of the terrain's ranges.
+    #[arg(long, default_value_t = 5)]
+    pub levels: usize,
+    /// Runs per tile and command (each from its own random heading).
+    #[arg(long, default_value_t = 2)]
+    pub runs: usize,
+    /// Seconds per run (after settling).
+    #[arg(long, default_value_t = 10.0)]
+    pub seconds: f64,
     /// Only these tile types, comma-separated (default: the terrain's), e.g. stairs_up,stairs_down.
     #[arg(long, value_delimiter = ',')]
     pub types: Vec<topa_env::terrain::TileKind>,
@@ -455,8 +455,9 @@ pub struct TileArgs {
     pub resolution: Option<f64>,
 }
 
-impl TileArgs {
-    pub fn protocol(self, levels: usize, runs: usize, window_s: f64) -> terrain::Protocol {
+impl TerrainArgs {
+    pub fn protocol(self) -> terrain::Protocol {
+        let (levels, runs, window_s) = (self.levels, self.runs, self.seconds);
         terrain::Protocol { levels, runs, window_s, types: self.types, resolution: self.resolution }
     }
 }

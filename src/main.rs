@@ -37,10 +37,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Terrain { merge, common, .. } if !merge.is_empty() => {
             eval_cmd::report_terrain(&topa::eval::terrain_report::merge(&merge)?, &common)
         }
-        Cmd::Terrain { groups, levels, runs, seconds, tiles, common, .. } => {
+        Cmd::Terrain { groups, protocol, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let policies = groups.policies()?;
-            let p = tiles.protocol(levels, runs, seconds);
+            let p = protocol.protocol();
             let r = topa::eval::terrain_report::run(&policies, &common.settings()?, &p)?;
             eval_cmd::report_terrain(&r, &common)
         }

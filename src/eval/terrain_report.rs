@@ -74,6 +74,14 @@ pub fn merge(files: &[PathBuf]) -> Result<TerrainReport> {
                     "{} was made with another protocol (levels, runs, seconds) than the first file",
                     f.display()
                 );
+                let tiles = |x: &TerrainReport| {
+                    x.entries.first().map(|e| (e.result.terrain.types.clone(), e.result.terrain.resolution))
+                };
+                ensure!(
+                    tiles(o) == tiles(&r) || r.entries.is_empty(),
+                    "{} was made on other tiles (types or resolution) than the first file",
+                    f.display()
+                );
                 for e in r.entries {
                     ensure!(
                         !o.entries.iter().any(|x| x.policy == e.policy),
