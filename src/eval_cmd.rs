@@ -238,7 +238,7 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             println!("{}", report::noise_markdown(&[("ours", &rows)], Some(&paper)));
         }
         EvalCmd::Course { policy, course, speeds, video } => {
-            let map = topa_env::course::Course::load(&topa_env::assets::robot_path(&course.to_string_lossy()))
+            let map = topa_env::course::Course::load(&topa_env::assets::resolve_path(&course.to_string_lossy()))
                 .map_err(anyhow::Error::msg)?;
             let mut r = PolicyRunner::load(&policy, "policy")?;
             let result = course::run(&mut r, &map, &s, &speeds, None)?;

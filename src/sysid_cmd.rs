@@ -174,7 +174,7 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
             };
             d.check()?;
             let (spec, model) =
-                topa_env::spec::RobotSpec::load(&topa_env::assets::robot_path(&robot.to_string_lossy()))?;
+                topa_env::spec::RobotSpec::load(&topa_env::assets::resolve_path(&robot.to_string_lossy()))?;
             let spec = Arc::new(spec);
             let idx = topa_env::RobotIndices::resolve(&model, &spec)?;
             let all: Vec<(String, f64)> = spec
@@ -393,7 +393,7 @@ fn load_bench(bench: &std::path::Path, robot: Option<&std::path::Path>, log: &Mo
     Ok(match robot {
         None => (Bench::load(bench, log)?, bench.to_path_buf()),
         Some(r) => {
-            let spec = topa_env::assets::robot_path(&r.to_string_lossy());
+            let spec = topa_env::assets::resolve_path(&r.to_string_lossy());
             let b = crate::sysid::robot::hung_bench(&spec, log)?;
             let mjcf = topa_env::spec::RobotSpec::load(&spec)?.0.mjcf;
             (b, mjcf)

@@ -58,7 +58,7 @@ pub struct Field {
 pub fn run(policies: &[(Group, PathBuf)], base: &EvalSettings, extent: &FieldExtent) -> Result<Field> {
     ensure!(!policies.is_empty(), "give at least one policy with --o, --c or --ca");
     let map =
-        Course::load(&topa_env::assets::robot_path(&extent.course.to_string_lossy())).map_err(anyhow::Error::msg)?;
+        Course::load(&topa_env::assets::resolve_path(&extent.course.to_string_lossy())).map_err(anyhow::Error::msg)?;
     let mut results = Vec::new();
     for (group, path) in policies {
         let mut runner = PolicyRunner::load(path, group.label())?;

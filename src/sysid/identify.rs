@@ -270,7 +270,7 @@ pub fn write_patched_mjcf(bench: &Path, params: &Params, motors: &[String], out:
 /// an empty string.
 pub fn write_sim2sim(id: &Identification, out: &Path) -> Result<String> {
     use crate::eval::settings::{EvalSettings, Sim2SimMode};
-    let spec = topa_env::assets::robot_path("assets/robots/topa_closed.toml");
+    let spec = topa_env::assets::resolve_path("assets/robots/topa_closed.toml");
     let Ok((spec, _)) = topa_env::spec::RobotSpec::load(&spec) else { return Ok(String::new()) };
     let order: Option<Vec<usize>> =
         spec.motors.iter().map(|m| id.motors.iter().position(|n| *n == m.actuator)).collect();

@@ -36,9 +36,10 @@ pub fn load_model(kind: ModelKind) -> Result<Arc<Model>> {
     Ok(Arc::new(Model::from_xml_path(model_path(kind))?))
 }
 
-/// Where a config's robot spec is: an absolute path, a path from the working folder, or from the repository root.
-pub fn robot_path(robot: &str) -> PathBuf {
-    let p = Path::new(robot);
+/// Where a file a config or a command names is (a robot spec, a course, a log): an absolute path, a path from the
+/// working folder, or from the repository root.
+pub fn resolve_path(file: &str) -> PathBuf {
+    let p = Path::new(file);
     if p.is_absolute() || p.exists() {
         p.to_path_buf()
     } else {
@@ -48,7 +49,7 @@ pub fn robot_path(robot: &str) -> PathBuf {
 
 /// The robot a config names: its spec, checked against its compiled MJCF; on the config's terrain when it has one.
 pub fn load_robot(cfg: &EnvConfig) -> Result<(Arc<RobotSpec>, Arc<Model>)> {
-    let (spec, model) = RobotSpec::load(&robot_path(&cfg.robot))?;
+    let (spec, model) = RobotSpec::load(&resolve_path(&cfg.robot))?;
     if cfg.terrain.enabled {
         let (model, _) = crate::terrain::Terrain::shared(&cfg.terrain)?.compile(&spec)?;
         return Ok((Arc::new(spec), model));

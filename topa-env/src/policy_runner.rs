@@ -40,9 +40,9 @@ pub struct PolicyRunner {
 fn policy_robot(meta: &trainer::policy_file::PolicyMeta) -> Result<PathBuf> {
     let named = meta.robot.as_deref().filter(|r| r.ends_with(".toml"));
     Ok(match named {
-        Some(r) => assets::robot_path(r),
+        Some(r) => assets::resolve_path(r),
         None => {
-            assets::robot_path(ModelKind::of_policy(meta.robot.as_deref()).map_err(anyhow::Error::msg)?.spec_path())
+            assets::resolve_path(ModelKind::of_policy(meta.robot.as_deref()).map_err(anyhow::Error::msg)?.spec_path())
         }
     })
 }

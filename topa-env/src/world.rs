@@ -92,7 +92,7 @@ mod tests {
     use super::*;
 
     fn spec() -> RobotSpec {
-        RobotSpec::load(&crate::assets::robot_path("assets/robots/topa_closed.toml")).unwrap().0
+        RobotSpec::load(&crate::assets::resolve_path("assets/robots/topa_closed.toml")).unwrap().0
     }
 
     #[test]

@@ -54,7 +54,7 @@ fn wrong_keys_and_values_are_named() {
 
 #[test]
 fn the_course_compiles_with_the_robot_and_its_feet_get_the_material_friction() {
-    let spec = crate::spec::RobotSpec::load(&crate::assets::robot_path("assets/robots/topa_closed.toml")).unwrap().0;
+    let spec = crate::spec::RobotSpec::load(&crate::assets::resolve_path("assets/robots/topa_closed.toml")).unwrap().0;
     let c = Course::parse(INDOOR).unwrap();
     let (m, map) = c.compile(&spec).unwrap();
     let floor = m.id(mujoco_sys::ObjType::Geom, &spec.floor_geom).unwrap();

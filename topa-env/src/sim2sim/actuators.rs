@@ -100,7 +100,7 @@ mod tests {
 
     #[test]
     fn values_land_on_the_motors_and_bad_lists_are_refused() {
-        let (spec, model) = RobotSpec::load(&crate::assets::robot_path("assets/robots/topa_closed.toml")).unwrap();
+        let (spec, model) = RobotSpec::load(&crate::assets::resolve_path("assets/robots/topa_closed.toml")).unwrap();
         let mut model = Arc::new(model);
         let idx = RobotIndices::resolve(&model, &Arc::new(spec)).unwrap();
         let n = idx.n_motors;
