@@ -87,32 +87,6 @@ impl RobotEnv {
         })
     }
 
-    /// The height scan's values (`[env.height_scan]`), after the paper's blocks: at each point of the grid in the
-    /// base's heading frame, the base's height over the ground there minus the stand height, clipped.
-    pub(super) fn write_height_scan(&mut self, obs: &mut [f32]) {
-        let scan = &self.cfg.height_scan;
-        if !scan.enabled {
-            return;
-        }
-        let at = self.layout.offset(crate::observation::Block::HeightScan);
-        let [bx, by, bz] = self.robot_state.base_pos;
-        let (sin, cos) = self.robot_state.yaw.sin_cos();
-        let target = self.base_height_target();
-        let noisy = self.cfg.noise.enabled && scan.noise > 0.0;
-        let mut k = at;
-        for &x in &scan.x {
-            for &y in &scan.y {
-                let (px, py) = (bx + cos * x - sin * y, by + sin * x + cos * y);
-                let mut v = (bz - self.ground_height(px, py) - target).clamp(-scan.clip, scan.clip);
-                if noisy {
-                    v += self.rng.random_range(-scan.noise..=scan.noise);
-                }
-                obs[k] = v as f32;
-                k += 1;
-            }
-        }
-    }
-
     /// The terrain row this env is on, if it walks on a terrain.
     pub fn terrain_level(&self) -> Option<usize> {
         self.terrain.as_ref().map(|t| t.fixed.map_or(t.level, |f| f.0))

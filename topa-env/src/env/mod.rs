@@ -9,15 +9,16 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 mod ground;
+mod observe;
 mod snapshot;
 
 use crate::config::EnvConfig;
 use crate::error::{EnvError, Result};
 use crate::indices::RobotIndices;
-use crate::observation::{Block, ObsLayout};
+use crate::observation::ObsLayout;
 use crate::perturb::Perturbation;
 use crate::rewards::{self, MotorInputs, RewardInputs, N_TERMS, TERM_NAMES};
-use crate::sim2sim::{Sensed, Sim2Sim};
+use crate::sim2sim::Sim2Sim;
 use crate::state::{self, quat_of, RobotState};
 use crate::symmetry::{self, Symmetry};
 use crate::task::{StepOutcome, Task};
@@ -299,46 +300,6 @@ impl RobotEnv {
         }
         self.data.set_const()?;
         Ok(())
-    }
-
-    /// The observation: the simulator's state, or with realistic sim2sim what the robot's computer `sensed`.
-    fn write_obs(&mut self, obs: &mut [f32], sensed: Option<&Sensed>) {
-        let s = &self.robot_state;
-        let (lin_vel, ang_vel, gravity, pos, vel) = match sensed {
-            Some(x) => (x.lin_vel, x.ang_vel, x.gravity, &x.motor_pos, &x.motor_vel),
-            None => (s.lin_vel, s.ang_vel, s.gravity, &s.motor_pos, &s.motor_vel),
-        };
-        let n = &self.cfg.noise;
-        let on = n.enabled;
-        let rng = &mut self.rng;
-        let mut noise = |scale: f64| if on && scale > 0.0 { rng.random_range(-scale..=scale) } else { 0.0 };
-        let l = &self.layout;
-        let (lv, av, gr) = (l.offset(Block::LinVel), l.offset(Block::AngVel), l.offset(Block::Gravity));
-        for i in 0..3 {
-            obs[lv + i] = (lin_vel[i] + noise(n.lin_vel)) as f32;
-            obs[av + i] = (ang_vel[i] + noise(n.ang_vel)) as f32;
-        }
-        let off = self.perturbation.gravity_offset;
-        let mut g = Vector3::from_fn(|i, _| gravity[i] + off[i] + noise(n.gravity));
-        if g.norm() > 1e-9 {
-            g.normalize_mut();
-        }
-        for i in 0..3 {
-            obs[gr + i] = g[i] as f32;
-        }
-        let (q, qd, la) = (l.offset(Block::MotorPos), l.offset(Block::MotorVel), l.offset(Block::LastAction));
-        let nominal = &self.idx.nominal_actuated;
-        for i in 0..l.n_motors {
-            obs[q + i] = (pos[i] - nominal[i] + noise(n.motor_pos)) as f32;
-            obs[qd + i] = (vel[i] + noise(n.motor_vel)) as f32;
-            obs[la + i] = self.last_action[i] as f32;
-        }
-        let c = self.command();
-        let co = l.offset(Block::Command);
-        for i in 0..3 {
-            obs[co + i] = c[i] as f32;
-        }
-        self.write_height_scan(obs);
     }
 
     fn apply_forces(&mut self) {
