@@ -7,22 +7,8 @@ use nalgebra::{UnitQuaternion, Vector3};
 use rand::RngExt;
 
 use super::RobotEnv;
-use crate::terrain::{self, Terrain};
+use crate::terrain;
 use crate::world::FrictionMap;
-
-/// A robot's place on a terrain: its column (tile type, fixed), its row (level, moved by the curriculum) and
-/// where this episode started.
-#[derive(Debug, Clone)]
-pub(super) struct OnTerrain {
-    pub map: Arc<Terrain>,
-    pub column: usize,
-    pub level: usize,
-    pub origin: [f64; 2],
-    /// The displacement the commands asked for this episode (world frame, on the robot's heading), m.
-    pub commanded: [f64; 2],
-    /// Every episode on this tile (level, column), the curriculum off: evaluation.
-    pub fixed: Option<(usize, usize)>,
-}
 
 /// Half-side of the square under the base whose mean ground height the base is measured from, m (smooths the
 /// jump at a stair's edge).
@@ -30,16 +16,6 @@ const BASE_FOOTPRINT: f64 = 0.15;
 
 /// Radius within which the highest ground lifts a robot put down on a terrain, m (its feet's reach).
 const PUT_DOWN_RADIUS: f64 = 0.25;
-
-impl OnTerrain {
-    /// Env `index` of a batch: its column by index (legged_gym gives each type an equal share of the robots), a
-    /// starting row drawn up to the curriculum's `start_level_max`.
-    pub(super) fn new(map: Arc<Terrain>, index: u64, rng: &mut rand_chacha::ChaCha8Rng) -> Self {
-        let column = index as usize % map.cfg.types.len();
-        let level = rng.random_range(0..=map.cfg.curriculum.start_level_max);
-        OnTerrain { map, column, level, origin: [0.0; 2], commanded: [0.0; 2], fixed: None }
-    }
-}
 
 impl RobotEnv {
     /// Friction of the ground by place (a course's floors): each foot gets the friction under it before every step.

@@ -98,7 +98,7 @@ pub struct RobotEnv {
     /// This episode's randomised friction scale (the ground's map values are scaled by it too).
     friction_scale: f64,
     /// The robot's place on a terrain, when `[env.terrain]` is on.
-    terrain: Option<ground::OnTerrain>,
+    terrain: Option<crate::terrain::Placement>,
     /// The last step ended in a fall (the terrain curriculum reads it at the reset that follows).
     fell: bool,
 }
@@ -150,7 +150,7 @@ impl RobotEnv {
                     "[env.terrain] is on but the model has no terrain: build it with assets::load_robot".into(),
                 ));
             }
-            Some(ground::OnTerrain::new(crate::terrain::Terrain::shared(&cfg.terrain)?, index, &mut rng))
+            Some(crate::terrain::Placement::new(crate::terrain::Terrain::shared(&cfg.terrain)?, index, &mut rng))
         } else {
             None
         };

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use mujoco_sys::{Model, ObjType};
 
-use super::Terrain;
+use super::field::Terrain;
 use crate::error::{EnvError, Result};
 use crate::spec::RobotSpec;
 use crate::world::{FrictionMap, WorldXml, MAPPED_FLOOR_FRICTION};

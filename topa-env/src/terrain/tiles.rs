@@ -4,7 +4,7 @@
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 
-use super::{TerrainConfig, TileKind};
+use super::config::{TerrainConfig, TileKind};
 
 /// A value of `[easiest, hardest]` at difficulty `d`.
 fn lerp([a, b]: [f64; 2], d: f64) -> f64 {
