@@ -77,7 +77,7 @@ impl RobotEnv {
             ));
         };
         if let Some((l, c)) = tile {
-            if l >= t.map.cfg.levels || c >= t.map.cfg.types.len() {
+            if !t.map.has_tile(l, c) {
                 return Err(crate::error::EnvError::Config(format!(
                     "terrain tile ({l}, {c}) is outside the grid of {} levels × {} types",
                     t.map.cfg.levels,
@@ -155,7 +155,7 @@ impl RobotEnv {
         t.origin = [f[0], f[1]];
         t.commanded = [f[2], f[3]];
         (t.level, t.column) = (u[0] as usize, u[1] as usize);
-        if t.level >= t.map.cfg.levels || t.column >= t.map.cfg.types.len() {
+        if !t.map.has_tile(t.level, t.column) {
             return Err(crate::error::EnvError::Shape(format!(
                 "env snapshot puts the robot on terrain tile ({}, {}), outside this terrain's grid",
                 t.level, t.column

@@ -108,8 +108,9 @@ impl RobotEnv {
     /// pick the env's own random stream, so a batch is deterministic whatever the thread count.
     pub fn new(model: Arc<Model>, cfg: Arc<EnvConfig>, seed: u64, index: u64) -> Result<Self> {
         cfg.validate()?;
-        let (spec, _) = crate::assets::load_robot(&cfg)?;
-        let idx = Arc::new(RobotIndices::resolve(&model, &spec)?);
+        // The spec only: `model` is already the robot in its world (load_robot would compile a terrain again).
+        let (spec, _) = crate::spec::RobotSpec::load(&crate::assets::resolve_path(&cfg.robot))?;
+        let idx = Arc::new(RobotIndices::resolve(&model, &Arc::new(spec))?);
         Self::with_indices(model, cfg, idx, seed, index)
     }
 

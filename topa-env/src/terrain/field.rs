@@ -86,12 +86,16 @@ impl Terrain {
         [b + (level as f64 + 0.5) * l, b + (column as f64 + 0.5) * l]
     }
 
+    /// Whether (level, column) is a tile of this grid.
+    pub fn has_tile(&self, level: usize, column: usize) -> bool {
+        level < self.cfg.levels && column < self.cfg.types.len()
+    }
+
     /// The tile under (x, y), if any: (level, column).
     pub fn tile_at(&self, x: f64, y: f64) -> Option<(usize, usize)> {
         let (b, l) = (self.cfg.border, self.cfg.tile_size);
         let (fx, fy) = ((x - b) / l, (y - b) / l);
-        (fx >= 0.0 && fy >= 0.0 && (fx as usize) < self.cfg.levels && (fy as usize) < self.cfg.types.len())
-            .then_some((fx as usize, fy as usize))
+        (fx >= 0.0 && fy >= 0.0 && self.has_tile(fx as usize, fy as usize)).then_some((fx as usize, fy as usize))
     }
 
     /// Ground height at (x, y), m: bilinear between samples (MuJoCo draws two triangles per cell, so this is
