@@ -68,6 +68,7 @@ macro_rules! write_arrays {
 read_arrays! {
     body_parentid: i32, nbody;
     body_rootid: i32, nbody;
+    body_weldid: i32, nbody;
     body_jntnum: i32, nbody;
     body_jntadr: i32, nbody;
     body_geomnum: i32, nbody;

@@ -213,6 +213,9 @@ pub fn run(
             if t >= limit_s && !f.done {
                 f.finish(t, false);
             }
+            if f.done {
+                batch.set_parked(i, true); // a finished run stands still while the slower ones go on
+            }
         }
         if let Some(w) = watch.as_mut() {
             w(t, &mut batch.tasks_mut()[0])?;

@@ -56,6 +56,8 @@ pub struct BatchEnv<T: Task> {
     obs_dim: usize,
     act_dim: usize,
     reset_errors: Vec<Option<EnvError>>,
+    /// Envs left out of `step` (their state, observation and episode stand still), e.g. an evaluation's finished runs.
+    parked: Vec<bool>,
 }
 
 impl<T: Task> BatchEnv<T> {
@@ -90,6 +92,7 @@ impl<T: Task> BatchEnv<T> {
             obs_dim,
             act_dim,
             reset_errors: (0..n).map(|_| None).collect(),
+            parked: vec![false; n],
         })
     }
 
@@ -103,6 +106,11 @@ impl<T: Task> BatchEnv<T> {
     }
     pub fn tasks_mut(&mut self) -> &mut [T] {
         &mut self.tasks
+    }
+    /// Leaves env `i` out of the following steps (or takes it back): an evaluation's finished run then costs nothing
+    /// while the others go on, and their results do not change (envs are independent).
+    pub fn set_parked(&mut self, i: usize, parked: bool) {
+        self.parked[i] = parked;
     }
 }
 
@@ -150,6 +158,7 @@ impl<T: Task> VecEnv for BatchEnv<T> {
             ended,
             times,
             reset_errors,
+            parked,
             pool,
             ..
         } = self;
@@ -166,7 +175,12 @@ impl<T: Task> VecEnv for BatchEnv<T> {
                 .zip(ended.par_iter_mut())
                 .zip(times.par_iter_mut())
                 .zip(reset_errors.par_iter_mut())
-                .for_each(|((((((((((t, a), o), term), e), r), d), to), end), tm), err)| {
+                .zip(parked.par_iter())
+                .for_each(|(((((((((((t, a), o), term), e), r), d), to), end), tm), err), &park)| {
+                    if park {
+                        (*r, *d, *to, *end, *tm) = (0.0, 0.0, 0.0, (false, false, false), [0; 3]);
+                        return;
+                    }
                     let t0 = Instant::now();
                     let out = t.step(a, o);
                     let t1 = Instant::now();

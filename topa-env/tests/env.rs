@@ -172,6 +172,35 @@ fn a_seed_fixes_the_rollout_whatever_the_thread_count() {
 }
 
 #[test]
+fn a_parked_env_stands_still_and_the_others_go_on_unchanged() {
+    let cfg = EnvConfig::default();
+    let run = |park: bool| {
+        let mut v = topa_env::vec_env::robot_batch(&cfg, 3, 7, 2).unwrap();
+        v.reset().unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut frozen = None;
+        for k in 0..40 {
+            if park && k == 10 {
+                v.set_parked(1, true);
+                frozen = Some((v.obs()[OBS_DIM..2 * OBS_DIM].to_vec(), v.tasks()[1].robot_state().base_pos));
+            }
+            let act: Vec<f32> = (0..3 * 10).map(|_| rng.random_range(-1.0..1.0)).collect();
+            v.step(&act).unwrap();
+        }
+        (v.obs().to_vec(), v.tasks()[1].robot_state().base_pos, v.rewards()[1], frozen)
+    };
+    let (all, moved, _, _) = run(false);
+    let (parked, still, reward, frozen) = run(true);
+    let (obs_then, pos_then) = frozen.unwrap();
+    assert_eq!(still, pos_then, "a parked env's robot must not move");
+    assert_ne!(moved, pos_then, "unparked, the same robot moves");
+    assert_eq!(parked[OBS_DIM..2 * OBS_DIM], obs_then[..], "a parked env's observation stands still");
+    assert_eq!(reward, 0.0);
+    assert_eq!(all[..OBS_DIM], parked[..OBS_DIM], "the other envs are bit-identical");
+    assert_eq!(all[2 * OBS_DIM..], parked[2 * OBS_DIM..]);
+}
+
+#[test]
 fn domain_randomisation_stays_within_its_ranges() {
     let mut cfg = EnvConfig::default();
     cfg.domain_rand.mass_scale = [0.9, 1.1];
