@@ -66,3 +66,26 @@ fn the_course_compiles_with_the_robot_and_its_feet_get_the_material_friction() {
     let walls = m.names(mujoco_sys::ObjType::Geom).iter().filter(|n| n.starts_with(WALL_PREFIX)).count();
     assert_eq!(walls, c.walls.len());
 }
+
+#[test]
+fn a_robot_pushed_into_a_wall_touches_it_and_the_wall_counts_as_ground() {
+    // The walls live in static bodies of their own (mjcf.rs): they must still collide and still be ground.
+    let spec = crate::spec::RobotSpec::load(&crate::assets::resolve_path("assets/robots/topa_closed.toml")).unwrap().0;
+    let c = Course::parse(INDOOR).unwrap();
+    let (m, _) = c.compile(&spec).unwrap();
+    let wall = m.id(mujoco_sys::ObjType::Geom, &format!("{WALL_PREFIX}0")).unwrap();
+    assert_ne!(m.geom_bodyid()[wall], 0, "a wall has a body of its own");
+    assert!(crate::world::is_ground(&m, wall));
+    let free = (0..m.njnt()).find(|&j| m.jnt_type()[j] == 0).unwrap();
+    let adr = m.jnt_qposadr()[free] as usize;
+    let w = &c.walls[0];
+    let mut d = mujoco_sys::Data::new(m.clone()).unwrap();
+    d.qpos_mut()[adr..adr + 3].copy_from_slice(&[(w.from[0] + w.to[0]) / 2.0, (w.from[1] + w.to[1]) / 2.0, 0.4]);
+    d.forward().unwrap();
+    let touches =
+        |d: &mujoco_sys::Data| d.contacts().iter().any(|k| k.geom1 as usize == wall || k.geom2 as usize == wall);
+    assert!(touches(&d), "a robot inside a wall must touch it");
+    d.qpos_mut()[adr + 1] += 3.0;
+    d.forward().unwrap();
+    assert!(!touches(&d), "3 m away it must not");
+}
