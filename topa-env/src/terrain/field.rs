@@ -101,14 +101,7 @@ impl Terrain {
     /// Ground height at (x, y), m: bilinear between samples (MuJoCo draws two triangles per cell, so this is
     /// within a cell's height difference of what the feet touch); the edge's height off the field.
     pub fn height_at(&self, x: f64, y: f64) -> f64 {
-        let fx = (x / self.dx).clamp(0.0, (self.nx - 1) as f64);
-        let fy = (y / self.dy).clamp(0.0, (self.ny - 1) as f64);
-        let (i, j) = ((fx as usize).min(self.nx - 2), (fy as usize).min(self.ny - 2));
-        let (tx, ty) = (fx - i as f64, fy - j as f64);
-        let h = |i: usize, j: usize| self.heights[j * self.nx + i] as f64;
-        let lo = h(i, j) * (1.0 - tx) + h(i + 1, j) * tx;
-        let hi = h(i, j + 1) * (1.0 - tx) + h(i + 1, j + 1) * tx;
-        lo * (1.0 - ty) + hi * ty
+        tiles::bilinear([x / self.dx, y / self.dy], [self.nx, self.ny], |i, j| self.heights[j * self.nx + i] as f64)
     }
 
     /// The highest ground within `r` of (x, y) (on a 5 × 5 pattern): where a robot can be put down.

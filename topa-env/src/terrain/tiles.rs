@@ -7,6 +7,18 @@ use rand_chacha::ChaCha8Rng;
 use super::config::{TerrainConfig, TileKind};
 
 /// A value of `[easiest, hardest]` at difficulty `d`.
+/// Bilinear interpolation on an `n[0]` × `n[1]` grid of samples `at(i, j)`, at `f` in sample units (clamped to the
+/// grid).
+pub(super) fn bilinear(f: [f64; 2], n: [usize; 2], at: impl Fn(usize, usize) -> f64) -> f64 {
+    let fx = f[0].clamp(0.0, (n[0] - 1) as f64);
+    let fy = f[1].clamp(0.0, (n[1] - 1) as f64);
+    let (i, j) = ((fx as usize).min(n[0] - 2), (fy as usize).min(n[1] - 2));
+    let (tx, ty) = (fx - i as f64, fy - j as f64);
+    let lo = at(i, j) * (1.0 - tx) + at(i + 1, j) * tx;
+    let hi = at(i, j + 1) * (1.0 - tx) + at(i + 1, j + 1) * tx;
+    lo * (1.0 - ty) + hi * ty
+}
+
 fn lerp([a, b]: [f64; 2], d: f64) -> f64 {
     a + (b - a) * d
 }
@@ -52,14 +64,9 @@ impl Tile {
             Shape::Stairs { step, tread } => step * (inward / tread + 1e-9).floor(),
         };
         if let Some(b) = &self.bumps {
-            let fx = ((u + self.half) / b.cell).clamp(0.0, (b.n - 1) as f64);
-            let fy = ((v + self.half) / b.cell).clamp(0.0, (b.n - 1) as f64);
-            let (i, j) = ((fx as usize).min(b.n - 2), (fy as usize).min(b.n - 2));
-            let (tx, ty) = (fx - i as f64, fy - j as f64);
-            let at = |i: usize, j: usize| b.values[j * b.n + i];
-            let lo = at(i, j) * (1.0 - tx) + at(i + 1, j) * tx;
-            let hi = at(i, j + 1) * (1.0 - tx) + at(i + 1, j + 1) * tx;
-            h += lo * (1.0 - ty) + hi * ty;
+            h += bilinear([(u + self.half) / b.cell, (v + self.half) / b.cell], [b.n, b.n], |i, j| {
+                b.values[j * b.n + i]
+            });
         }
         let on_platform = u.abs() < self.platform_half && v.abs() < self.platform_half;
         if !on_platform {
