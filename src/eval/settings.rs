@@ -36,8 +36,7 @@ impl EvalSettings {
     /// robot it runs on, at the evaluation timestep and the policy's own control period.
     pub fn env_config(&self, runner: &PolicyRunner) -> Result<EnvConfig> {
         let s = self;
-        let train = EnvConfig::from_table(&runner.policy.meta.provenance.config.env)?;
-        let mut c = train.for_evaluation();
+        let mut c = runner.training_config().for_evaluation();
         c.robot = runner.robot().path.to_string_lossy().into_owned();
         c.integrator = s.integrator;
         // The evaluation model is the MJCF's: training's solver shortcuts stay in training.

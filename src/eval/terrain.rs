@@ -160,8 +160,7 @@ pub fn run(runner: &mut PolicyRunner, settings: &EvalSettings, p: &Protocol) -> 
     anyhow::ensure!(runs >= 1, "terrain evaluation needs at least one run per cell (--runs ≥ 1)");
     anyhow::ensure!(window_s > 0.0, "terrain evaluation needs a positive run length (--seconds)");
     let mut cfg = settings.env_config(runner)?;
-    let train = EnvConfig::from_table(&runner.policy.meta.provenance.config.env)?;
-    cfg.terrain = evaluation_terrain(&train, p);
+    cfg.terrain = evaluation_terrain(runner.training_config(), p);
     cfg.validate()?;
     let types = cfg.terrain.types.clone();
     let mut tiles = Vec::new();

@@ -30,6 +30,8 @@ pub struct PolicyRunner {
     /// (J, J⁻¹) where the two differ.
     map: Option<(DMatrix<f64>, DMatrix<f64>)>,
     layout: ObsLayout,
+    /// Its training config (the sidecar's, parsed and validated once).
+    training: crate::EnvConfig,
     /// The robot's motor positions in its stand keyframe (what actions are offsets from).
     nominal_motors: Vec<f64>,
     obs_buf: Vec<f32>,
@@ -108,10 +110,16 @@ impl PolicyRunner {
             robot,
             map,
             layout,
+            training: trained,
             nominal_motors,
             obs_buf: Vec::new(),
             act_buf: Vec::new(),
         })
+    }
+
+    /// The env config the policy was trained with.
+    pub fn training_config(&self) -> &crate::EnvConfig {
+        &self.training
     }
 
     /// The name of the robot spec the policy was trained on (e.g. topa_open for the paper's O).
