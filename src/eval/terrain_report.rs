@@ -9,7 +9,6 @@ use std::path::{Path, PathBuf};
 use anyhow::{ensure, Result};
 use serde::{Deserialize, Serialize};
 use topa_env::policy_runner::PolicyRunner;
-use topa_env::EnvConfig;
 
 use super::intervals::{self, Resampling, Scores};
 use super::results::Group;
@@ -42,7 +41,7 @@ pub fn run(policies: &[(Group, PathBuf)], settings: &EvalSettings, p: &terrain::
     let mut entries = Vec::new();
     for (group, path) in policies {
         let mut r = PolicyRunner::load(path, group.label())?;
-        let trained_on_terrain = EnvConfig::from_table(&r.policy.meta.provenance.config.env)?.terrain.enabled;
+        let trained_on_terrain = r.training_config().terrain.enabled;
         eprintln!("{}: {} (trained on {})", group.label(), path.display(), ground(trained_on_terrain));
         let result = terrain::run(&mut r, settings, p)?;
         entries.push(TerrainEntry { group: *group, policy: path.clone(), trained_on_terrain, result });

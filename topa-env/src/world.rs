@@ -81,8 +81,8 @@ pub fn compile(spec: &RobotSpec, world: &WorldXml) -> Result<Arc<Model>> {
     Ok(Arc::new(model))
 }
 
-/// Whether geom `g` is part of the ground: anything fixed to the world (the floor, terrain, and a course's walls and
-/// thresholds, which sit in static bodies of their own).
+/// Whether geom `g` is part of the ground: anything fixed to the world (the floor, terrain, a course's thresholds,
+/// and its walls, which sit in static bodies of their own).
 pub fn is_ground(model: &Model, g: usize) -> bool {
     model.body_weldid()[model.geom_bodyid()[g] as usize] == 0
 }

@@ -5,7 +5,7 @@
 //! MuJoCo 2.2 tests every geom of the world body against every geom of every other body at each collision pass
 //! (four per RK4 step), whereas a static body of its own goes through sweep-and-prune and is skipped unless the
 //! robot is near it: so each wall gets a body, and the drawn-only geoms share one that cannot collide (a course run
-//! costs ~10 % less). Thresholds, which the feet stand on, stay in the world body beside the floor: moving them
+//! costs ~13 % less). Thresholds, which the feet stand on, stay in the world body beside the floor: moving them
 //! would reorder the feet's contacts and with them the solver's rounding, and so every course result.
 
 use std::fmt::Write;
