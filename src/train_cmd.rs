@@ -307,7 +307,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
                 from.clone()
             };
             let (side, loaded) = checkpoint::read_sidecar(&side_path)?;
-            checkpoint::init_policy_from(&mut t, &side, &loaded)?;
+            checkpoint::init_policy_from(&mut t, &side, &loaded, added_inputs(&side, &env_cfg)?)?;
             eprintln!("policy initialised from {} (iteration {})", side_path.display(), side.iteration);
         }
         (t, out, command_line(), None)
@@ -392,4 +392,13 @@ pub fn run(args: TrainArgs) -> Result<()> {
 fn say(line: &str) {
     use std::io::Write;
     let _ = std::io::stderr().lock().write_all(format!("{line}\n").as_bytes());
+}
+
+/// Observation values a run adds to the policy it starts from: a height scan turned on (its values come after the
+/// paper's, so the forked policy starts blind to it and learns to use it); nothing else may change the size.
+fn added_inputs(side: &checkpoint::Sidecar, env: &EnvConfig) -> Result<usize> {
+    let source = EnvConfig::from_table(&side.config.env)
+        .context("the checkpoint's own [env] config does not parse with this build")?;
+    let (nx, ny) = env.height_scan.grid();
+    Ok(if env.height_scan.enabled && !source.height_scan.enabled { nx * ny } else { 0 })
 }

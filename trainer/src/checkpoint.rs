@@ -85,20 +85,59 @@ fn save_agent(b: &mut Bundle, prefix: &str, a: &Agent) -> Result<AgentMeta> {
 }
 
 fn load_agent(l: &Loaded, prefix: &str, a: &mut Agent, meta: &AgentMeta) -> Result<()> {
+    load_agent_widened(l, prefix, a, meta, 0, 0.0)
+}
+
+/// Loads an agent whose networks had `extra` fewer inputs (0: the same): the first layers' weight columns and
+/// Adam moments for the extra inputs, appended after the file's, start at zero, so the agent acts exactly as the
+/// file's did until it learns to use them. The normaliser's statistics then weigh as `fresh` samples (the file's
+/// variances kept; the new inputs at mean 0, variance 1), so the new inputs' real statistics take over quickly.
+fn load_agent_widened(
+    l: &Loaded,
+    prefix: &str,
+    a: &mut Agent,
+    meta: &AgentMeta,
+    extra: usize,
+    fresh: f64,
+) -> Result<()> {
     let named = a.ac.named_vars();
     let (mut m, mut v) = (Vec::new(), Vec::new());
     for (name, var) in &named {
         let dims = var.dims().to_vec();
-        let w = l.f32(&format!("{prefix}.{name}"), &dims)?;
-        var.set(&Tensor::from_vec(w, dims.as_slice(), &Device::Cpu)?)?;
-        m.push(l.f32(&format!("{prefix}.adam_m.{name}"), &dims)?);
-        v.push(l.f32(&format!("{prefix}.adam_v.{name}"), &dims)?);
+        let first_layer = extra > 0 && (name == "actor.0.weight" || name == "critic.0.weight");
+        let (file_dims, widen) = if first_layer {
+            let (rows, cols) = (dims[0], dims[1] - extra);
+            let widen = move |w: Vec<f32>| -> Vec<f32> {
+                w.chunks_exact(cols).flat_map(|r| r.iter().copied().chain(std::iter::repeat_n(0.0, extra))).collect()
+            };
+            (vec![rows, cols], Some(widen))
+        } else {
+            (dims.clone(), None)
+        };
+        let read = |what: &str| -> Result<Vec<f32>> {
+            let x = l.f32(&format!("{prefix}.{what}{name}"), &file_dims)?;
+            Ok(match &widen {
+                Some(f) => f(x),
+                None => x,
+            })
+        };
+        var.set(&Tensor::from_vec(read("")?, dims.as_slice(), &Device::Cpu)?)?;
+        m.push(read("adam_m.")?);
+        v.push(read("adam_v.")?);
     }
     a.opt.set_state(AdamState { step: meta.adam_step, m, v }).map_err(anyhow::Error::msg)?;
-    let d = a.normalizer.dim();
-    let mean = l.f64(&format!("{prefix}.normalizer.mean"), &[d])?;
-    let m2 = l.f64(&format!("{prefix}.normalizer.m2"), &[d])?;
-    a.normalizer.set_stats(mean, m2, meta.normalizer_count).map_err(anyhow::Error::msg)?;
+    let d = a.normalizer.dim() - extra;
+    let (mut mean, mut m2) =
+        (l.f64(&format!("{prefix}.normalizer.mean"), &[d])?, l.f64(&format!("{prefix}.normalizer.m2"), &[d])?);
+    let mut count = meta.normalizer_count;
+    if extra > 0 {
+        let fresh = fresh.clamp(1.0, count.max(1.0));
+        m2.iter_mut().for_each(|x| *x *= fresh / count.max(1.0));
+        count = fresh;
+        mean.extend(std::iter::repeat_n(0.0, extra));
+        m2.extend(std::iter::repeat_n(fresh, extra));
+    }
+    a.normalizer.set_stats(mean, m2, count).map_err(anyhow::Error::msg)?;
     a.lr = meta.learning_rate;
     Ok(())
 }
@@ -286,20 +325,25 @@ pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
 /// Starts `t` from another run's policy (e.g. C+A from a C run's checkpoint): the policy's weights, Adam state,
 /// learning rate and normaliser, and the iteration count up to the end of phase 1 (so a finished C run goes
 /// straight to the adversary's first phase). The environments and the RNG stay fresh.
-pub fn init_policy_from(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
-    if side.obs_dim != t.env.obs_dim() || side.action_dim != t.env.action_dim() {
+///
+/// `extra_inputs`: how many observation values this task has after the checkpoint's (the caller vouches that the
+/// first ones mean the same, e.g. a height scan added to a blind policy); 0 demands equal sizes.
+pub fn init_policy_from(t: &mut Trainer, side: &Sidecar, l: &Loaded, extra_inputs: usize) -> Result<()> {
+    if side.obs_dim + extra_inputs != t.env.obs_dim() || side.action_dim != t.env.action_dim() {
         bail!(
-            "the checkpoint's policy has {}→{} inputs/outputs, this task needs {}→{}",
+            "the checkpoint's policy has {}→{} inputs/outputs, this task needs {}→{}{}",
             side.obs_dim,
             side.action_dim,
             t.env.obs_dim(),
-            t.env.action_dim()
+            t.env.action_dim(),
+            if extra_inputs > 0 { format!(" ({extra_inputs} inputs added)") } else { String::new() }
         );
     }
     if side.config.network != t.cfg.network {
         bail!("the checkpoint's network ({:?}) differs from this config's ({:?})", side.config.network, t.cfg.network);
     }
-    load_agent(l, "policy", &mut t.policy, &side.policy)?;
+    let batch = (t.cfg.run.num_envs * t.cfg.run.steps_per_env) as f64;
+    load_agent_widened(l, "policy", &mut t.policy, &side.policy, extra_inputs, batch)?;
     let phase1 = if t.adversary.is_some() { t.cfg.adversary.phase1_policy_iters } else { t.cfg.run.iterations };
     t.iteration = side.iteration.min(phase1);
     t.samples = side.samples;
