@@ -1,8 +1,9 @@
 //! Terrain over groups of seeds (`topa terrain`): `eval terrain` per policy, grouped by the paper's group and by
-//! the ground it was trained on (flat, or the terrain curriculum). Per group: mean success over every type ×
-//! difficulty cell with its bootstrap 95 % interval (seeds resampled whole, each cell's runs redrawn), and per type
-//! the hardest difficulty every seed crossed; where a group has seeds of both grounds, terrain − flat with its
-//! interval and the probability of improvement.
+//! the ground it was trained on (flat, or the terrain curriculum) and whether it sees a height scan. Per group:
+//! mean success over every type × difficulty cell with its bootstrap 95 % interval (seeds resampled whole, each
+//! cell's runs redrawn), and per type the hardest difficulty every seed crossed; where a group has seeds of both
+//! grounds, terrain − flat, and of both senses on terrain, height scan − blind, each with its interval and the
+//! probability of improvement.
 
 use std::path::{Path, PathBuf};
 
@@ -22,6 +23,9 @@ pub struct TerrainEntry {
     pub policy: PathBuf,
     /// Its training config had `[env.terrain]` on.
     pub trained_on_terrain: bool,
+    /// Its observation has `[env.height_scan]` (absent in reports written before scans were told apart: blind).
+    #[serde(default)]
+    pub height_scan: bool,
     pub result: TerrainResult,
 }
 
@@ -41,10 +45,12 @@ pub fn run(policies: &[(Group, PathBuf)], settings: &EvalSettings, p: &terrain::
     let mut entries = Vec::new();
     for (group, path) in policies {
         let mut r = PolicyRunner::load(path, group.label())?;
-        let trained_on_terrain = r.training_config().terrain.enabled;
-        eprintln!("{}: {} (trained on {})", group.label(), path.display(), ground(trained_on_terrain));
+        let (trained_on_terrain, height_scan) =
+            (r.training_config().terrain.enabled, r.training_config().height_scan.enabled);
+        let sense = if height_scan { ", with a height scan" } else { "" };
+        eprintln!("{}: {} (trained on {}{sense})", group.label(), path.display(), ground(trained_on_terrain));
         let result = terrain::run(&mut r, settings, p)?;
-        entries.push(TerrainEntry { group: *group, policy: path.clone(), trained_on_terrain, result });
+        entries.push(TerrainEntry { group: *group, policy: path.clone(), trained_on_terrain, height_scan, result });
     }
     Ok(TerrainReport { levels, runs, window_s, entries })
 }
@@ -96,19 +102,21 @@ pub fn merge(files: &[PathBuf]) -> Result<TerrainReport> {
     Ok(out.expect("at least one file"))
 }
 
-/// One row of the report: a group's seeds of one ground.
+/// One row of the report: a group's seeds of one ground and one sense.
 pub struct GroupRow<'a> {
     pub group: Group,
     pub on_terrain: bool,
+    pub height_scan: bool,
     pub seeds: Vec<&'a TerrainResult>,
 }
 
 impl GroupRow<'_> {
     pub fn label(&self) -> String {
-        if self.on_terrain {
-            format!("{} (terrain)", self.group.label())
-        } else {
-            self.group.label().to_string()
+        match (self.on_terrain, self.height_scan) {
+            (false, false) => self.group.label().to_string(),
+            (true, false) => format!("{} (terrain)", self.group.label()),
+            (false, true) => format!("{} (height scan)", self.group.label()),
+            (true, true) => format!("{} (terrain, height scan)", self.group.label()),
         }
     }
 
@@ -121,19 +129,19 @@ impl GroupRow<'_> {
     }
 }
 
-/// The rows, in the paper's group order, flat before terrain.
+/// The rows, in the paper's group order, flat before terrain, blind before the height scan.
 pub fn rows(r: &TerrainReport) -> Vec<GroupRow<'_>> {
     let mut out = Vec::new();
     for group in Group::ALL {
-        for on_terrain in [false, true] {
+        for (on_terrain, height_scan) in [(false, false), (false, true), (true, false), (true, true)] {
             let seeds: Vec<&TerrainResult> = r
                 .entries
                 .iter()
-                .filter(|e| e.group == group && e.trained_on_terrain == on_terrain)
+                .filter(|e| e.group == group && e.trained_on_terrain == on_terrain && e.height_scan == height_scan)
                 .map(|e| &e.result)
                 .collect();
             if !seeds.is_empty() {
-                out.push(GroupRow { group, on_terrain, seeds });
+                out.push(GroupRow { group, on_terrain, height_scan, seeds });
             }
         }
     }
@@ -171,29 +179,40 @@ pub fn markdown(r: &TerrainReport) -> String {
         s.push('\n');
     }
     for group in Group::ALL {
-        let of = |t: bool| rows.iter().find(|x| x.group == group && x.on_terrain == t);
-        if let (Some(flat), Some(ter)) = (of(false), of(true)) {
-            if let Some((d, p)) = intervals::compare(&ter.scores(), &flat.scores(), WHOLE) {
-                let verdict = if ter.seeds.len().min(flat.seeds.len()) < intervals::MIN_RUNS_FOR_VERDICT {
-                    "too few seeds to decide"
-                } else {
-                    match d.sign() {
-                        Some(true) => "the terrain-trained seeds succeed more often",
-                        Some(false) => "the terrain-trained seeds succeed less often",
-                        None => "no difference the interval can tell",
-                    }
-                };
-                s.push_str(&format!(
-                    "\n{} − {}: {} percentage points, P(improvement) {} — {verdict}.\n",
-                    ter.label(),
-                    flat.label(),
-                    d.show(0),
-                    p.show(2)
-                ));
-            }
+        let of = |terrain: bool, scan: bool| {
+            rows.iter().find(|x| x.group == group && x.on_terrain == terrain && x.height_scan == scan)
+        };
+        let pairs = [
+            (of(true, false), of(false, false), "the terrain-trained seeds"),
+            (of(true, true), of(true, false), "the seeds with the height scan"),
+        ];
+        for (better, base, who) in pairs {
+            let (Some(better), Some(base)) = (better, base) else { continue };
+            s.push_str(&comparison(better, base, who));
         }
     }
     s
+}
+
+/// `better − base` with its interval, the probability of improvement and the verdict (`who` succeed more often).
+fn comparison(better: &GroupRow, base: &GroupRow, who: &str) -> String {
+    let Some((d, p)) = intervals::compare(&better.scores(), &base.scores(), WHOLE) else { return String::new() };
+    let verdict = if better.seeds.len().min(base.seeds.len()) < intervals::MIN_RUNS_FOR_VERDICT {
+        "too few seeds to decide".to_string()
+    } else {
+        match d.sign() {
+            Some(true) => format!("{who} succeed more often"),
+            Some(false) => format!("{who} succeed less often"),
+            None => "no difference the interval can tell".to_string(),
+        }
+    };
+    format!(
+        "\n{} − {}: {} percentage points, P(improvement) {} — {verdict}.\n",
+        better.label(),
+        base.label(),
+        d.show(0),
+        p.show(2)
+    )
 }
 
 /// Writes terrain.{md,json} and each policy's success heatmap into `out`; returns the Markdown.
@@ -204,9 +223,10 @@ pub fn write(r: &TerrainReport, out: &Path) -> Result<String> {
     super::report::write_json(out, "terrain.json", r)?;
     for e in &r.entries {
         let stem = format!(
-            "{}{}-{}",
+            "{}{}{}-{}",
             e.group.key(),
             if e.trained_on_terrain { "-terrain" } else { "" },
+            if e.height_scan { "-scan" } else { "" },
             e.policy.file_stem().map_or("policy".into(), |s| s.to_string_lossy().into_owned())
         );
         let title = format!("{} {}", e.group.label(), e.policy.display());
@@ -218,4 +238,33 @@ pub fn write(r: &TerrainReport, out: &Path) -> Result<String> {
         )?;
     }
     Ok(md)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seeds_with_a_height_scan_form_their_own_row_and_are_compared_with_the_blind_ones() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/results/terrain/terrain.json");
+        let mut r = merge(&[path]).unwrap();
+        let blind: Vec<TerrainEntry> =
+            r.entries.iter().filter(|e| e.group == Group::C && e.trained_on_terrain).cloned().collect();
+        assert_eq!(blind.len(), 2, "the shipped report has two terrain C seeds");
+        let before = markdown(&r);
+        assert!(!before.contains("height scan"), "{before}");
+        // The same results as if from scan policies: a row of their own, and a difference of zero.
+        r.entries.extend(blind.into_iter().map(|mut e| {
+            e.height_scan = true;
+            e.policy = e.policy.with_file_name(format!("scan-{}", e.policy.file_name().unwrap().to_string_lossy()));
+            e
+        }));
+        let rows = rows(&r);
+        let scan = rows.iter().find(|x| x.height_scan).expect("a scan row");
+        assert_eq!((scan.label().as_str(), scan.seeds.len()), ("C (terrain, height scan)", 2));
+        let md = markdown(&r);
+        let line = md.lines().find(|l| l.starts_with("C (terrain, height scan) − C (terrain):")).expect(&md);
+        assert!(line.contains(": +0 [") || line.contains(": 0 [") || line.contains(": -0 ["), "{line}");
+        assert!(line.contains("P(improvement) 0.50") && line.contains("too few seeds to decide"), "{line}");
+    }
 }
