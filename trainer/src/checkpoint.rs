@@ -85,57 +85,58 @@ fn save_agent(b: &mut Bundle, prefix: &str, a: &Agent) -> Result<AgentMeta> {
 }
 
 fn load_agent(l: &Loaded, prefix: &str, a: &mut Agent, meta: &AgentMeta) -> Result<()> {
-    load_agent_widened(l, prefix, a, meta, 0, 0.0)
+    load_agent_widened(l, prefix, a, meta, 0, &[])
 }
 
-/// Loads an agent whose networks had `extra` fewer inputs (0: the same): the first layers' weight columns and
-/// Adam moments for the extra inputs, appended after the file's, start at zero, so the agent acts exactly as the
-/// file's did until it learns to use them. The normaliser's statistics then weigh as `fresh` samples (the file's
-/// variances kept; the new inputs at mean 0, variance 1), so the new inputs' real statistics take over quickly.
+/// Loads an agent whose networks had `extra` fewer inputs (0: the same), appended after the file's: their first
+/// layers' weight columns start at zero, so the agent acts exactly as the file's did until it learns to use them.
+/// Their Adam moments start at zero mean and at the second moment of the other columns of the same row (from zero
+/// Adam's first steps would be ~3× the learning rate: the step count is long past its bias correction). Their
+/// normaliser statistics come from `first_obs` (the task's first observations, rows × inputs) with the file's
+/// weight, so that neither the file's inputs nor the new ones see their scaling drift under the policy.
 fn load_agent_widened(
     l: &Loaded,
     prefix: &str,
     a: &mut Agent,
     meta: &AgentMeta,
     extra: usize,
-    fresh: f64,
+    first_obs: &[f32],
 ) -> Result<()> {
     let named = a.ac.named_vars();
     let (mut m, mut v) = (Vec::new(), Vec::new());
     for (name, var) in &named {
         let dims = var.dims().to_vec();
         let first_layer = extra > 0 && (name == "actor.0.weight" || name == "critic.0.weight");
-        let (file_dims, widen) = if first_layer {
-            let (rows, cols) = (dims[0], dims[1] - extra);
-            let widen = move |w: Vec<f32>| -> Vec<f32> {
-                w.chunks_exact(cols).flat_map(|r| r.iter().copied().chain(std::iter::repeat_n(0.0, extra))).collect()
-            };
-            (vec![rows, cols], Some(widen))
-        } else {
-            (dims.clone(), None)
+        let file_dims = if first_layer { vec![dims[0], dims[1] - extra] } else { dims.clone() };
+        let cols = file_dims[file_dims.len() - 1];
+        // Each row of the file's matrix with `extra` values appended: zeros, or (Adam's v) the row's mean.
+        let widen = |x: Vec<f32>, row_mean: bool| -> Vec<f32> {
+            if !first_layer {
+                return x;
+            }
+            let fill = |r: &[f32]| if row_mean { r.iter().sum::<f32>() / cols as f32 } else { 0.0 };
+            x.chunks_exact(cols).flat_map(|r| r.iter().copied().chain(std::iter::repeat_n(fill(r), extra))).collect()
         };
-        let read = |what: &str| -> Result<Vec<f32>> {
-            let x = l.f32(&format!("{prefix}.{what}{name}"), &file_dims)?;
-            Ok(match &widen {
-                Some(f) => f(x),
-                None => x,
-            })
-        };
-        var.set(&Tensor::from_vec(read("")?, dims.as_slice(), &Device::Cpu)?)?;
-        m.push(read("adam_m.")?);
-        v.push(read("adam_v.")?);
+        let read = |what: &str| l.f32(&format!("{prefix}.{what}{name}"), &file_dims);
+        var.set(&Tensor::from_vec(widen(read("")?, false), dims.as_slice(), &Device::Cpu)?)?;
+        m.push(widen(read("adam_m.")?, false));
+        v.push(widen(read("adam_v.")?, true));
     }
     a.opt.set_state(AdamState { step: meta.adam_step, m, v }).map_err(anyhow::Error::msg)?;
     let d = a.normalizer.dim() - extra;
     let (mut mean, mut m2) =
         (l.f64(&format!("{prefix}.normalizer.mean"), &[d])?, l.f64(&format!("{prefix}.normalizer.m2"), &[d])?);
-    let mut count = meta.normalizer_count;
+    let count = meta.normalizer_count;
     if extra > 0 {
-        let fresh = fresh.clamp(1.0, count.max(1.0));
-        m2.iter_mut().for_each(|x| *x *= fresh / count.max(1.0));
-        count = fresh;
-        mean.extend(std::iter::repeat_n(0.0, extra));
-        m2.extend(std::iter::repeat_n(fresh, extra));
+        let first = a.normalizer.batch_moments(first_obs);
+        if first.count < 1.0 {
+            bail!("no observations to take the {extra} new inputs' statistics from");
+        }
+        for i in d..d + extra {
+            mean.push(first.mean[i]);
+            // A floor: an input constant over the first batch (e.g. flat ground) must not scale by 1/ε later.
+            m2.push((first.m2[i] / first.count).max(1e-6) * count.max(1.0));
+        }
     }
     a.normalizer.set_stats(mean, m2, count).map_err(anyhow::Error::msg)?;
     a.lr = meta.learning_rate;
@@ -342,8 +343,8 @@ pub fn init_policy_from(t: &mut Trainer, side: &Sidecar, l: &Loaded, extra_input
     if side.config.network != t.cfg.network {
         bail!("the checkpoint's network ({:?}) differs from this config's ({:?})", side.config.network, t.cfg.network);
     }
-    let batch = (t.cfg.run.num_envs * t.cfg.run.steps_per_env) as f64;
-    load_agent_widened(l, "policy", &mut t.policy, &side.policy, extra_inputs, batch)?;
+    let first_obs = t.env.obs().to_vec();
+    load_agent_widened(l, "policy", &mut t.policy, &side.policy, extra_inputs, &first_obs)?;
     let phase1 = if t.adversary.is_some() { t.cfg.adversary.phase1_policy_iters } else { t.cfg.run.iterations };
     t.iteration = side.iteration.min(phase1);
     t.samples = side.samples;
