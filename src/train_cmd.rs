@@ -44,7 +44,8 @@ pub struct TrainArgs {
     /// Continue the run in this folder from its latest checkpoint.
     #[arg(long, conflicts_with = "config")]
     pub resume: Option<PathBuf>,
-    /// Start the policy from another run's checkpoint (folder or sidecar), e.g. C+A from C.
+    /// Start the policy from another run's checkpoint (folder or sidecar), e.g. C+A from C; a blind policy into a
+    /// config with `[env.height_scan]` on gets the scan as new inputs with zero weights.
     #[arg(long)]
     pub init_from: Option<PathBuf>,
     /// No progress bar; a status line every 10 iterations on stderr (for nohup logs).
