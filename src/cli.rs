@@ -217,6 +217,9 @@ pub enum BenchCmd {
         /// Interleaved rounds (best kept).
         #[arg(long, default_value_t = 3)]
         rounds: usize,
+        /// Also the same envs on rough terrain (`[env.terrain]` defaults), as a ratio to the flat floor.
+        #[arg(long)]
+        terrain: bool,
     },
     /// Samples/s of a full PPO update (paper networks, 24 576 samples) at 1 and 2 threads, GFLOP/s, inference
     /// share of an iteration, and the torch reference if given.

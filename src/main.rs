@@ -152,8 +152,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 bench::train::run(&a)
             }
         }
-        Cmd::Bench(BenchCmd::Env { model, envs, threads, integrator, seconds, rounds }) => {
-            bench::env::run(model, &envs, &threads, integrator, seconds, rounds)
+        Cmd::Bench(BenchCmd::Env { model, envs, threads, integrator, seconds, rounds, terrain }) => {
+            bench::env::run(model, &envs, &threads, integrator, seconds, rounds, terrain)
         }
     }
 }
