@@ -343,8 +343,7 @@ pub fn init_policy_from(t: &mut Trainer, side: &Sidecar, l: &Loaded, extra_input
     if side.config.network != t.cfg.network {
         bail!("the checkpoint's network ({:?}) differs from this config's ({:?})", side.config.network, t.cfg.network);
     }
-    let first_obs = t.env.obs().to_vec();
-    load_agent_widened(l, "policy", &mut t.policy, &side.policy, extra_inputs, &first_obs)?;
+    load_agent_widened(l, "policy", &mut t.policy, &side.policy, extra_inputs, t.env.obs())?;
     let phase1 = if t.adversary.is_some() { t.cfg.adversary.phase1_policy_iters } else { t.cfg.run.iterations };
     t.iteration = side.iteration.min(phase1);
     t.samples = side.samples;
