@@ -11,7 +11,8 @@ use crate::eval::ablate::{self, Extent};
 use crate::eval::results::Group;
 use crate::eval::settings::{EvalSettings, Sim2SimMode};
 use crate::eval::{
-    course, course_map, endurance, field, heatmaps, noise, push, report, terrain, terrain_map, terrain_report, tracking,
+    course, course_map, endurance, field, heatmaps, noise, progress, push, report, terrain, terrain_map,
+    terrain_report, tracking,
 };
 use topa_env::policy_runner::PolicyRunner;
 
@@ -159,6 +160,23 @@ pub enum EvalCmd {
         #[command(flatten)]
         video: VideoArgs,
     },
+    /// Iterations to the bars: every N-th kept checkpoint of one or more runs through the six tracking commands
+    /// (no fall, each MAE ≤ 0.15, no stand-still, gait); per run the first checkpoint meeting every bar and the one
+    /// from which all later ones do. Train with `[run] keep_checkpoints = 0` to keep them.
+    Progress {
+        /// A `topa train --out` folder (repeat for several seeds).
+        #[arg(long = "run", required = true)]
+        runs: Vec<PathBuf>,
+        /// Evaluate the checkpoints at multiples of this iteration (and the last).
+        #[arg(long, default_value_t = 100)]
+        every: usize,
+        /// Seconds per command (after settling).
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+        /// Initial states per command.
+        #[arg(long, default_value_t = 10)]
+        starts: usize,
+    },
     /// A long run under an operator-like joystick (speed changes, turns, stops, hand noise, occasional pushes):
     /// interventions and their causes.
     Endurance {
@@ -284,6 +302,24 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             }
             println!("{}", terrain::markdown(&result));
             println!("heatmap: {}", png.display());
+        }
+        EvalCmd::Progress { runs, every, seconds, starts } => {
+            let results = runs
+                .iter()
+                .map(|r| progress::run(r, every, &s, seconds, starts, &c.out))
+                .collect::<Result<Vec<_>>>()?;
+            report::write_json(&c.out, "progress.json", &results)?;
+            let protocol = format!(
+                "{starts} starts × {seconds} s per command, {} sim2sim at {} s",
+                String::from(s.sim2sim_mode.clone()),
+                s.timestep()
+            );
+            let md = progress::markdown(&results, &protocol);
+            report::write_text(&c.out, "progress.md", &md)?;
+            if c.json {
+                return print_json(&results);
+            }
+            println!("{md}");
         }
         EvalCmd::Endurance { policy, minutes, runs } => {
             let mut r = PolicyRunner::load(&policy, "policy")?;

@@ -141,16 +141,17 @@ pub fn with_resolved_env(cfg: &TrainConfig) -> Result<TrainConfig> {
     Ok(cfg)
 }
 
-/// Exports the current policy as `<out>/policy.{safetensors,json}`; its provenance holds the full resolved config.
-pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> {
-    let cfg = &with_resolved_env(&t.cfg)?;
+/// A policy file's sidecar for a run of `provenance.config` at the point `provenance` records: the task's robot,
+/// sizes and control settings, and the provenance with its config fully resolved.
+fn policy_meta(obs_dim: usize, action_dim: usize, provenance: Provenance) -> Result<PolicyMeta> {
+    let cfg = with_resolved_env(&provenance.config)?;
     let env = EnvConfig::from_table(&cfg.env)?;
-    let meta = PolicyMeta {
+    Ok(PolicyMeta {
         format: policy_file::FORMAT.into(),
         version: policy_file::VERSION,
         robot: (env.task == TaskKind::Robot).then(|| env.robot.clone()),
-        obs_dim: t.env.obs_dim(),
-        action_dim: t.env.action_dim(),
+        obs_dim,
+        action_dim,
         hidden: cfg.network.actor_hidden.clone(),
         activation: cfg.network.activation,
         action_scale: env.action_scale,
@@ -158,10 +159,19 @@ pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> 
         policy_dt: env.policy_dt(),
         weights: String::new(),
         weights_crc32: 0,
-        provenance: Provenance {
+        provenance: Provenance { seed: cfg.run.seed, config: cfg, ..provenance },
+    })
+}
+
+/// Exports the current policy as `<out>/policy.{safetensors,json}`; its provenance holds the full resolved config.
+pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> {
+    let meta = policy_meta(
+        t.env.obs_dim(),
+        t.env.action_dim(),
+        Provenance {
             command: command.to_string(),
-            config: cfg.clone(),
-            seed: cfg.run.seed,
+            config: t.cfg.clone(),
+            seed: t.cfg.run.seed,
             iterations: t.iteration,
             samples: t.samples,
             wall_time_s: t.wall_time_s,
@@ -169,8 +179,31 @@ pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> 
             trained_on: format!("{}, {}", crate::today(), trainer::segments::this_machine()),
             segments: t.segments.clone(),
         },
-    };
+    )?;
     policy_file::save(&out.join("policy"), &t.policy.ac.actor, &t.policy.normalizer, meta)
+}
+
+/// Exports the policy of a kept checkpoint (its sidecar) as `<stem>.{safetensors,json}`, e.g. to evaluate a run
+/// part-way; the provenance is the checkpoint's (its iteration, samples and wall time so far).
+pub fn export_checkpoint(sidecar: &Path, stem: &Path) -> Result<PathBuf> {
+    let (side, loaded) = checkpoint::read_sidecar(sidecar)?;
+    let machine = side.segments.last().map_or("unrecorded machine".to_string(), |s| s.machine.clone());
+    let meta = policy_meta(
+        side.obs_dim,
+        side.action_dim,
+        Provenance {
+            command: side.command.clone(),
+            config: side.config.clone(),
+            seed: side.config.run.seed,
+            iterations: side.iteration,
+            samples: side.samples,
+            wall_time_s: side.wall_time_s,
+            with_adversary: side.with_adversary,
+            trained_on: format!("{machine}; checkpoint {}", sidecar.file_name().unwrap_or_default().to_string_lossy()),
+            segments: side.segments.clone(),
+        },
+    )?;
+    checkpoint::save_policy(&side, &loaded, stem, meta)
 }
 
 fn progress_line(log: &IterationLog, total: usize) -> String {

@@ -187,18 +187,21 @@ pub fn summary_markdown(groups: &[GroupResults], res: Resolution) -> String {
 
 /// The bars for one C or C+A policy.
 pub fn policy_bars(r: &PolicyResults) -> Vec<Claim> {
-    let who = format!("{} {}", r.name.label(), r.policy.display());
+    tracking_bars(&format!("{} {}", r.name.label(), r.policy.display()), &r.tracking)
+}
+
+/// The bars on `who`'s tracking rows (the six commands, gait at 0.5 m/s): no fall, each component's MAE, no
+/// stand-still (where starts were counted), gait.
+pub fn tracking_bars(who: &str, tracking: &[super::results::TrackingRow]) -> Vec<Claim> {
     // "key (falls/starts)" for each command that fell, or stood still, from at least one start.
     let count = |n: usize, t: &super::results::TrackingRow| format!("{} ({n}/{})", t.key, t.starts);
-    let falls: Vec<String> = r.tracking.iter().filter(|t| t.fell).map(|t| count(t.fall_count(), t)).collect();
-    let still: Option<Vec<String>> = r
-        .tracking
+    let falls: Vec<String> = tracking.iter().filter(|t| t.fell).map(|t| count(t.fall_count(), t)).collect();
+    let still: Option<Vec<String>> = tracking
         .iter()
         .map(|t| t.stood_still.map(|n| (n > 0).then(|| count(n, t))))
         .collect::<Option<Vec<_>>>()
         .map(|v| v.into_iter().flatten().collect());
-    let worst = r
-        .tracking
+    let worst = tracking
         .iter()
         .flat_map(|t| t.mae_whole.iter().map(move |m| (t.key.as_str(), *m)))
         .fold(("", 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
@@ -230,7 +233,7 @@ pub fn policy_bars(r: &PolicyResults) -> Vec<Claim> {
             undecided: "–",
         });
     }
-    if let Some(g) = r.tracking.iter().find(|t| t.key == "walk_forward").map(|t| &t.gait) {
+    if let Some(g) = tracking.iter().find(|t| t.key == "walk_forward").map(|t| &t.gait) {
         let ok = g.air_time_s >= MIN_AIR_TIME_S && g.clearance_m >= MIN_CLEARANCE_M && g.steps_per_s <= MAX_STEPS_PER_S;
         out.push(Claim {
             statement: format!(

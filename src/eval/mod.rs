@@ -16,6 +16,7 @@ pub mod heatmaps;
 pub mod intervals;
 mod nan_json;
 pub mod noise;
+pub mod progress;
 pub mod push;
 pub mod report;
 pub mod results;

@@ -351,3 +351,24 @@ pub fn init_policy_from(t: &mut Trainer, side: &Sidecar, l: &Loaded, extra_input
     t.segments = side.segments.clone();
     Ok(())
 }
+
+/// The checkpoint's policy as a deployable policy file (`<stem>.json` + `.safetensors`): its actor and normaliser,
+/// described by `meta` (the caller knows the task: robot, sizes, control settings). For studying a run's progress
+/// from its kept checkpoints.
+pub fn save_policy(side: &Sidecar, l: &Loaded, stem: &Path, meta: crate::policy_file::PolicyMeta) -> Result<PathBuf> {
+    let dims: Vec<usize> = std::iter::once(side.obs_dim)
+        .chain(side.config.network.actor_hidden.iter().copied())
+        .chain(std::iter::once(side.action_dim))
+        .collect();
+    let actor = crate::policy_file::read_actor(l, "policy.", &dims)?;
+    let mut normalizer = crate::normalizer::Normalizer::new(side.obs_dim, None);
+    let d = side.obs_dim;
+    normalizer
+        .set_stats(
+            l.f64("policy.normalizer.mean", &[d])?,
+            l.f64("policy.normalizer.m2", &[d])?,
+            side.policy.normalizer_count,
+        )
+        .map_err(anyhow::Error::msg)?;
+    crate::policy_file::save(stem, &actor, &normalizer, meta)
+}

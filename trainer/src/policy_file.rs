@@ -98,6 +98,25 @@ pub fn save(stem: &Path, actor: &Mlp, normalizer: &Normalizer, meta_in: PolicyMe
     Ok(json)
 }
 
+/// The actor stored under `prefix` (`{prefix}actor.{i}.weight` / `.bias`) with layer sizes `dims` (inputs,
+/// hidden…, outputs); a layer beyond them is an error.
+pub(crate) fn read_actor(l: &Loaded, prefix: &str, dims: &[usize]) -> Result<Mlp> {
+    let layers = (0..dims.len() - 1)
+        .map(|i| -> Result<Linear> {
+            let w = l.f32(&format!("{prefix}actor.{i}.weight"), &[dims[i + 1], dims[i]])?;
+            let b = l.f32(&format!("{prefix}actor.{i}.bias"), &[dims[i + 1]])?;
+            Ok(Linear {
+                weight: candle_core::Var::from_tensor(&Tensor::from_vec(w, (dims[i + 1], dims[i]), &Device::Cpu)?)?,
+                bias: candle_core::Var::from_tensor(&Tensor::from_vec(b, dims[i + 1], &Device::Cpu)?)?,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    if l.shape(&format!("{prefix}actor.{}.weight", dims.len() - 1)).is_some() {
+        bail!("more actor layers than the sidecar says");
+    }
+    Ok(Mlp { layers, hidden_activation: Activation::Elu })
+}
+
 impl Policy {
     /// Loads `path` (the `.json` sidecar, or the `.safetensors` next to it), validating format, version,
     /// checksum, names, shapes and values.
@@ -133,32 +152,14 @@ impl Policy {
             .chain(meta.hidden.iter().copied())
             .chain(std::iter::once(meta.action_dim))
             .collect();
-        let layers = (0..dims.len() - 1)
-            .map(|i| -> Result<Linear> {
-                let w = l.f32(&format!("actor.{i}.weight"), &[dims[i + 1], dims[i]])?;
-                let b = l.f32(&format!("actor.{i}.bias"), &[dims[i + 1]])?;
-                Ok(Linear {
-                    weight: candle_core::Var::from_tensor(&Tensor::from_vec(w, (dims[i + 1], dims[i]), &Device::Cpu)?)?,
-                    bias: candle_core::Var::from_tensor(&Tensor::from_vec(b, dims[i + 1], &Device::Cpu)?)?,
-                })
-            })
-            .collect::<Result<Vec<_>>>()?;
-        if l.shape(&format!("actor.{}.weight", dims.len() - 1)).is_some() {
-            bail!("{} has more layers than its sidecar says", weights.display());
-        }
+        let actor = read_actor(&l, "", &dims).map_err(|e| anyhow::anyhow!("{}: {e}", weights.display()))?;
         let mut normalizer = Normalizer::new(meta.obs_dim, None);
         let count = l.f64("normalizer.count", &[1])?[0];
         normalizer
             .set_stats(l.f64("normalizer.mean", &[meta.obs_dim])?, l.f64("normalizer.m2", &[meta.obs_dim])?, count)
             .map_err(|e| anyhow::anyhow!("{}: {e}", weights.display()))?;
         normalizer.frozen = true;
-        Ok(Policy {
-            meta,
-            actor: Mlp { layers, hidden_activation: Activation::Elu },
-            normalizer,
-            scratch: MlpScratch::default(),
-            norm_buf: Vec::new(),
-        })
+        Ok(Policy { meta, actor, normalizer, scratch: MlpScratch::default(), norm_buf: Vec::new() })
     }
 
     pub fn obs_dim(&self) -> usize {
