@@ -176,6 +176,10 @@ pub enum EvalCmd {
         /// Initial states per command.
         #[arg(long, default_value_t = 10)]
         starts: usize,
+        /// Also the standing push grid to ±30 N in steps of this many N (10: the quick protocol's 7×7); a run with
+        /// the adversary then has the C+A bar on its mean time to fall.
+        #[arg(long)]
+        push_step: Option<f64>,
     },
     /// A long run under an operator-like joystick (speed changes, turns, stops, hand noise, occasional pushes):
     /// interventions and their causes.
@@ -303,14 +307,13 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             println!("{}", terrain::markdown(&result));
             println!("heatmap: {}", png.display());
         }
-        EvalCmd::Progress { runs, every, seconds, starts } => {
-            let results = runs
-                .iter()
-                .map(|r| progress::run(r, every, &s, seconds, starts, &c.out))
-                .collect::<Result<Vec<_>>>()?;
+        EvalCmd::Progress { runs, every, seconds, starts, push_step } => {
+            let p = progress::Protocol { every, seconds, starts, push_step };
+            let results = runs.iter().map(|r| progress::run(r, p, &s, &c.out)).collect::<Result<Vec<_>>>()?;
             report::write_json(&c.out, "progress.json", &results)?;
+            let push = push_step.map_or(String::new(), |n| format!(", standing push grid to ±30 N in {n} N steps"));
             let protocol = format!(
-                "{starts} starts × {seconds} s per command, {} sim2sim at {} s",
+                "{starts} starts × {seconds} s per command{push}, {} sim2sim at {} s",
                 String::from(s.sim2sim_mode.clone()),
                 s.timestep()
             );

@@ -13,7 +13,7 @@ use topa_env::policy_runner::PolicyRunner;
 use super::claims;
 use super::results::TrackingRow;
 use super::settings::EvalSettings;
-use super::tracking;
+use super::{push, tracking};
 
 /// One checkpoint's policy through the tracking commands.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -23,6 +23,9 @@ pub struct Snapshot {
     /// The run's wall time up to this checkpoint, s (summed over its segments).
     pub wall_time_s: f64,
     pub tracking: Vec<TrackingRow>,
+    /// The standing push grid's mean time to fall, s (when asked for).
+    #[serde(default)]
+    pub push_t_fall_s: Option<f64>,
     pub bars: Vec<Bar>,
 }
 
@@ -99,32 +102,48 @@ pub fn checkpoints(run: &Path, every: usize) -> Result<Vec<(usize, PathBuf)>> {
     Ok(picked)
 }
 
-/// Evaluates every `every`-th kept checkpoint of `run` (policies exported under `out/policies/<run name>/`).
-pub fn run(
-    run: &Path,
-    every: usize,
-    settings: &EvalSettings,
-    seconds: f64,
-    starts: usize,
-    out: &Path,
-) -> Result<RunProgress> {
+/// What each checkpoint goes through: the tracking commands, and optionally the paper's standing push grid.
+#[derive(Debug, Clone, Copy)]
+pub struct Protocol {
+    pub every: usize,
+    pub seconds: f64,
+    pub starts: usize,
+    /// The push grid's step to ±30 N, N (None: no push test).
+    pub push_step: Option<f64>,
+}
+
+/// Evaluates every `every`-th kept checkpoint of `run` (policies exported under `out/policies/<run name>/`). With
+/// the push grid, a run with the adversary also has the C+A bar on its mean time to fall.
+pub fn run(run: &Path, p: Protocol, settings: &EvalSettings, out: &Path) -> Result<RunProgress> {
     let name = run.file_name().map_or_else(|| run.display().to_string(), |n| n.to_string_lossy().into_owned());
     let dir = out.join("policies").join(&name);
     std::fs::create_dir_all(&dir)?;
     let mut snapshots = Vec::new();
     let (mut seed, mut planned) = (0, 0);
-    for (it, sidecar) in checkpoints(run, every)? {
+    for (it, sidecar) in checkpoints(run, p.every)? {
         let policy = crate::train_cmd::export_checkpoint(&sidecar, &dir.join(format!("it{it:05}")))?;
         let mut runner = PolicyRunner::load(&policy, &name)?;
         let prov = &runner.policy.meta.provenance;
         (seed, planned) = (prov.seed, prov.config.run.iterations);
         let (samples, wall_time_s) = (prov.samples, prov.wall_time_s);
-        let rows = tracking::run(&mut runner, settings, seconds, 2.0_f64.min(seconds / 2.0), starts)?;
-        let bars = claims::tracking_bars(&format!("{name} iteration {it}"), &rows)
+        let with_adversary = prov.with_adversary;
+        let rows = tracking::run(&mut runner, settings, p.seconds, 2.0_f64.min(p.seconds / 2.0), p.starts)?;
+        let mut bars: Vec<Bar> = claims::tracking_bars(&format!("{name} iteration {it}"), &rows)
             .into_iter()
             .map(|c| Bar { holds: c.holds == Some(true), statement: c.statement, evidence: c.evidence })
             .collect();
-        let s = Snapshot { iteration: it, samples, wall_time_s, tracking: rows, bars };
+        let push_t_fall_s = match p.push_step {
+            Some(step) => Some(push::run(&mut runner, settings, 30.0, step, 10.0, [0.0; 3])?.mean_t_fall()),
+            None => None,
+        };
+        if let (Some(t), true) = (push_t_fall_s, with_adversary) {
+            bars.push(Bar {
+                statement: format!("{name} iteration {it}: push mean t_fall ≥ {} s", claims::MIN_CA_T_FALL_S),
+                holds: t >= claims::MIN_CA_T_FALL_S,
+                evidence: format!("{t:.2} s"),
+            });
+        }
+        let s = Snapshot { iteration: it, samples, wall_time_s, tracking: rows, push_t_fall_s, bars };
         eprintln!("{name} iteration {it}: {}", if s.meets_all() { "meets every bar" } else { "misses a bar" });
         snapshots.push(s);
     }
@@ -176,13 +195,13 @@ pub fn markdown(runs: &[RunProgress], protocol: &str) -> String {
         let _ = write!(
             s,
             "\n### {}\n\n| iteration | samples (M) | wall (h:mm) | falls | stand-stills | worst MAE | gait at 0.5 m/s | \
-             every bar |\n|---:|---:|---:|---|---|---|---|---|\n",
+             push t_fall (s) | every bar |\n|---:|---:|---:|---|---|---|---|---:|---|\n",
             r.run
         );
         for x in &r.snapshots {
             let _ = writeln!(
                 s,
-                "| {} | {:.1} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {:.1} | {} | {} | {} | {} | {} | {} | {} |",
                 x.iteration,
                 x.samples as f64 / 1e6,
                 hm(x.wall_time_s),
@@ -190,6 +209,7 @@ pub fn markdown(runs: &[RunProgress], protocol: &str) -> String {
                 cell(x, "stands still"),
                 cell(x, "MAE"),
                 cell(x, "gait"),
+                x.push_t_fall_s.map_or("–".into(), |t| format!("{t:.2}")),
                 if x.meets_all() { "yes" } else { "**no**" }
             );
         }
