@@ -5,22 +5,12 @@ use trainer::policy_file::Policy;
 
 mod common;
 
-const RUN: &str = r#"
-[run]
-num_envs = 8
-steps_per_env = 16
-iterations = 12
-threads = 1
-checkpoint_every = 5
-keep_checkpoints = 0
-"#;
-
 #[test]
 fn a_checkpoint_exports_as_the_policy_the_run_had_at_that_iteration() {
     let dir = std::env::temp_dir().join(format!("topa-progress-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let config = dir.join("cartpole.toml");
-    std::fs::write(&config, format!("{RUN}{}", common::TINY_CARTPOLE)).unwrap();
+    std::fs::write(&config, format!("{}{}", common::KEEP_ALL_RUN, common::TINY_CARTPOLE)).unwrap();
     let run = dir.join("run");
     common::cli_train(Some(&config), &run, false, None);
 

@@ -7,16 +7,6 @@ use std::path::{Path, PathBuf};
 
 mod common;
 
-const RUN: &str = r#"
-[run]
-num_envs = 8
-steps_per_env = 16
-iterations = 12
-threads = 1
-checkpoint_every = 5
-keep_checkpoints = 0
-"#;
-
 /// TFRecord's masked CRC-32C (Castagnoli).
 fn masked_crc(data: &[u8]) -> u32 {
     let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISCSI).checksum(data);
@@ -129,7 +119,7 @@ fn a_killed_and_resumed_run_shows_each_step_once_with_the_straight_values() {
     let dir = std::env::temp_dir().join(format!("topa-tensorboard-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let config = dir.join("cartpole.toml");
-    std::fs::write(&config, format!("{RUN}{}", common::TINY_CARTPOLE)).unwrap();
+    std::fs::write(&config, format!("{}{}", common::KEEP_ALL_RUN, common::TINY_CARTPOLE)).unwrap();
 
     let straight = dir.join("straight");
     train(&config, &straight, false, Some(20));

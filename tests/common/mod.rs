@@ -58,6 +58,17 @@ pub fn cli_train(config: Option<&std::path::Path>, out: &std::path::Path, resume
     .unwrap();
 }
 
+/// A 12-iteration run that keeps a checkpoint every 5 iterations, all of them (a config file's `[run]` table).
+pub const KEEP_ALL_RUN: &str = r#"
+[run]
+num_envs = 8
+steps_per_env = 16
+iterations = 12
+threads = 1
+checkpoint_every = 5
+keep_checkpoints = 0
+"#;
+
 /// A cart-pole run small enough for seconds, as a config file's text (`[run]` left to the caller's additions).
 pub const TINY_CARTPOLE: &str = r#"
 [ppo]
