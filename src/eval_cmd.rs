@@ -311,12 +311,7 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             let p = progress::Protocol { every, seconds, starts, push_step };
             let results = runs.iter().map(|r| progress::run(r, p, &s, &c.out)).collect::<Result<Vec<_>>>()?;
             report::write_json(&c.out, "progress.json", &results)?;
-            let push = push_step.map_or(String::new(), |n| format!(", standing push grid to ±30 N in {n} N steps"));
-            let protocol = format!(
-                "{starts} starts × {seconds} s per command{push}, {} sim2sim at {} s",
-                String::from(s.sim2sim_mode.clone()),
-                s.timestep()
-            );
+            let protocol = p.describe(&s);
             let md = progress::markdown(&results, &protocol);
             report::write_text(&c.out, "progress.md", &md)?;
             if c.json {

@@ -112,19 +112,61 @@ pub struct Protocol {
     pub push_step: Option<f64>,
 }
 
-/// Evaluates every `every`-th kept checkpoint of `run` (policies exported under `out/policies/<run name>/`). With
-/// the push grid, a run with the adversary also has the C+A bar on its mean time to fall.
+impl Protocol {
+    /// One line for the report; a cached result is reused only under the same line.
+    pub fn describe(&self, settings: &EvalSettings) -> String {
+        let push = self.push_step.map_or(String::new(), |n| format!(", standing push grid to ±30 N in {n} N steps"));
+        format!(
+            "{} starts × {} s per command{push}, {} sim2sim at {} s with the {:?} integrator, seed {}",
+            self.starts,
+            self.seconds,
+            String::from(settings.sim2sim_mode.clone()),
+            settings.timestep(),
+            settings.integrator,
+            settings.seed
+        )
+    }
+}
+
+/// A snapshot's result as kept beside its exported policy: re-running the study (e.g. while the run trains on)
+/// evaluates only the checkpoints it has not seen under the same protocol.
+#[derive(Serialize, Deserialize)]
+struct Cached {
+    protocol: String,
+    /// CRC-32 of the checkpoint's sidecar (a run retrained into the same folder has other checkpoints).
+    checkpoint_crc32: u32,
+    snapshot: Snapshot,
+}
+
+fn cached(file: &Path, protocol: &str, crc: u32) -> Option<Snapshot> {
+    let c: Cached = serde_json::from_str(&std::fs::read_to_string(file).ok()?).ok()?;
+    (c.protocol == protocol && c.checkpoint_crc32 == crc).then_some(c.snapshot)
+}
+
+/// Evaluates every `every`-th kept checkpoint of `run` (policies and results kept under
+/// `out/policies/<run name>/`). With the push grid, a run with the adversary also has the C+A bar on its mean time
+/// to fall.
 pub fn run(run: &Path, p: Protocol, settings: &EvalSettings, out: &Path) -> Result<RunProgress> {
     let name = run.file_name().map_or_else(|| run.display().to_string(), |n| n.to_string_lossy().into_owned());
     let dir = out.join("policies").join(&name);
     std::fs::create_dir_all(&dir)?;
     let mut snapshots = Vec::new();
     let (mut seed, mut planned) = (0, 0);
+    let protocol = p.describe(settings);
     for (it, sidecar) in checkpoints(run, p.every)? {
-        let policy = crate::train_cmd::export_checkpoint(&sidecar, &dir.join(format!("it{it:05}")))?;
+        let crc = trainer::tensorfile::checksum(
+            &std::fs::read(&sidecar).with_context(|| format!("cannot read {}", sidecar.display()))?,
+        );
+        let stem = dir.join(format!("it{it:05}"));
+        let result = stem.with_extension("result.json");
+        let policy = crate::train_cmd::export_checkpoint(&sidecar, &stem)?;
         let mut runner = PolicyRunner::load(&policy, &name)?;
         let prov = &runner.policy.meta.provenance;
         (seed, planned) = (prov.seed, prov.config.run.iterations);
+        if let Some(s) = cached(&result, &protocol, crc) {
+            snapshots.push(s);
+            continue;
+        }
         let (samples, wall_time_s) = (prov.samples, prov.wall_time_s);
         let with_adversary = prov.with_adversary;
         let rows = tracking::run(&mut runner, settings, p.seconds, 2.0_f64.min(p.seconds / 2.0), p.starts)?;
@@ -145,7 +187,9 @@ pub fn run(run: &Path, p: Protocol, settings: &EvalSettings, out: &Path) -> Resu
         }
         let s = Snapshot { iteration: it, samples, wall_time_s, tracking: rows, push_t_fall_s, bars };
         eprintln!("{name} iteration {it}: {}", if s.meets_all() { "meets every bar" } else { "misses a bar" });
-        snapshots.push(s);
+        let c = Cached { protocol: protocol.clone(), checkpoint_crc32: crc, snapshot: s };
+        super::report::write_json(&dir, &format!("it{it:05}.result.json"), &c)?;
+        snapshots.push(c.snapshot);
     }
     Ok(RunProgress { run: name, seed, planned_iterations: planned, snapshots })
 }
