@@ -283,6 +283,7 @@ mod tests {
             samples: it as u64 * 12_288,
             wall_time_s: it as f64 * 2.0,
             tracking: vec![],
+            push_t_fall_s: None,
             bars: vec![bar],
         }
     }
