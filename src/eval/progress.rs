@@ -210,7 +210,7 @@ fn cell(s: &Snapshot, bar: &str) -> String {
 /// The summary across runs, then one table per run.
 pub fn markdown(runs: &[RunProgress], protocol: &str) -> String {
     let mut s = format!(
-        "Bars: no fall on the six tracking commands, each component's MAE ≤ {}, no stand-still, gait at 0.5 m/s \
+        "# Iterations to the bars\n\nBars: no fall on the six tracking commands, each component's MAE ≤ {}, no stand-still, gait at 0.5 m/s \
          (air ≥ {} s, clearance ≥ {} cm, ≤ {} steps/s); {protocol}.\n\n",
         claims::MAX_COMPONENT_MAE,
         claims::MIN_AIR_TIME_S,
