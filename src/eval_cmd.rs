@@ -11,7 +11,7 @@ use crate::eval::ablate::{self, Extent};
 use crate::eval::results::Group;
 use crate::eval::settings::{EvalSettings, Sim2SimMode};
 use crate::eval::{
-    course, course_map, endurance, field, heatmaps, noise, progress, push, report, terrain, terrain_map,
+    course, course_map, endurance, field, heatmaps, noise, progress, progress_plot, push, report, terrain, terrain_map,
     terrain_report, tracking,
 };
 use topa_env::policy_runner::PolicyRunner;
@@ -314,6 +314,7 @@ pub fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             let protocol = p.describe(&s);
             let md = progress::markdown(&results, &protocol);
             report::write_text(&c.out, "progress.md", &md)?;
+            progress_plot::figure(&results, &c.out.join("progress.png"), &c.out.join("progress.svg"))?;
             if c.json {
                 return print_json(&results);
             }

@@ -17,6 +17,7 @@ pub mod intervals;
 mod nan_json;
 pub mod noise;
 pub mod progress;
+pub mod progress_plot;
 pub mod push;
 pub mod report;
 pub mod results;
