@@ -159,7 +159,7 @@ fn policy_meta(obs_dim: usize, action_dim: usize, provenance: Provenance) -> Res
         policy_dt: env.policy_dt(),
         weights: String::new(),
         weights_crc32: 0,
-        provenance: Provenance { seed: cfg.run.seed, config: cfg, ..provenance },
+        provenance: Provenance { config: cfg, ..provenance },
     })
 }
 

@@ -190,6 +190,18 @@ pub fn policy_bars(r: &PolicyResults) -> Vec<Claim> {
     tracking_bars(&format!("{} {}", r.name.label(), r.policy.display()), &r.tracking)
 }
 
+/// The largest whole-window MAE of any component on any command, with that command's key (NaNs skipped; ("", 0)
+/// for no rows).
+pub fn worst_component(tracking: &[super::results::TrackingRow]) -> (&str, f64) {
+    tracking.iter().flat_map(|t| t.mae_whole.iter().map(move |m| (t.key.as_str(), *m))).fold(("", 0.0f64), |a, b| {
+        if b.1 > a.1 {
+            b
+        } else {
+            a
+        }
+    })
+}
+
 /// The bars on `who`'s tracking rows (the six commands, gait at 0.5 m/s): no fall, each component's MAE, no
 /// stand-still (where starts were counted), gait.
 pub fn tracking_bars(who: &str, tracking: &[super::results::TrackingRow]) -> Vec<Claim> {
@@ -201,10 +213,7 @@ pub fn tracking_bars(who: &str, tracking: &[super::results::TrackingRow]) -> Vec
         .map(|t| t.stood_still.map(|n| (n > 0).then(|| count(n, t))))
         .collect::<Option<Vec<_>>>()
         .map(|v| v.into_iter().flatten().collect());
-    let worst = tracking
-        .iter()
-        .flat_map(|t| t.mae_whole.iter().map(move |m| (t.key.as_str(), *m)))
-        .fold(("", 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
+    let worst = worst_component(tracking);
     let mut out = vec![
         Claim {
             statement: format!("{who}: no fall on any tracking command"),

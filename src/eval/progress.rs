@@ -129,18 +129,21 @@ impl Protocol {
 }
 
 /// A snapshot's result as kept beside its exported policy: re-running the study (e.g. while the run trains on)
-/// evaluates only the checkpoints it has not seen under the same protocol.
+/// evaluates only the checkpoints it has not seen under the same protocol, without exporting them again.
 #[derive(Serialize, Deserialize)]
 struct Cached {
     protocol: String,
     /// CRC-32 of the checkpoint's sidecar (a run retrained into the same folder has other checkpoints).
     checkpoint_crc32: u32,
+    /// The run's seed and planned length, as the checkpoint's config says.
+    seed: u64,
+    planned_iterations: usize,
     snapshot: Snapshot,
 }
 
-fn cached(file: &Path, protocol: &str, crc: u32) -> Option<Snapshot> {
+fn cached(file: &Path, protocol: &str, crc: u32) -> Option<Cached> {
     let c: Cached = serde_json::from_str(&std::fs::read_to_string(file).ok()?).ok()?;
-    (c.protocol == protocol && c.checkpoint_crc32 == crc).then_some(c.snapshot)
+    (c.protocol == protocol && c.checkpoint_crc32 == crc).then_some(c)
 }
 
 /// Evaluates every `every`-th kept checkpoint of `run` (policies and results kept under
@@ -157,16 +160,16 @@ pub fn run(run: &Path, p: Protocol, settings: &EvalSettings, out: &Path) -> Resu
         let crc = trainer::tensorfile::checksum(
             &std::fs::read(&sidecar).with_context(|| format!("cannot read {}", sidecar.display()))?,
         );
-        let stem = dir.join(format!("it{it:05}"));
-        let result = stem.with_extension("result.json");
-        let policy = crate::train_cmd::export_checkpoint(&sidecar, &stem)?;
+        let result = format!("it{it:05}.result.json");
+        if let Some(c) = cached(&dir.join(&result), &protocol, crc) {
+            (seed, planned) = (c.seed, c.planned_iterations);
+            snapshots.push(c.snapshot);
+            continue;
+        }
+        let policy = crate::train_cmd::export_checkpoint(&sidecar, &dir.join(format!("it{it:05}")))?;
         let mut runner = PolicyRunner::load(&policy, &name)?;
         let prov = &runner.policy.meta.provenance;
         (seed, planned) = (prov.seed, prov.config.run.iterations);
-        if let Some(s) = cached(&result, &protocol, crc) {
-            snapshots.push(s);
-            continue;
-        }
         let (samples, wall_time_s) = (prov.samples, prov.wall_time_s);
         let with_adversary = prov.with_adversary;
         let rows = tracking::run(&mut runner, settings, p.seconds, 2.0_f64.min(p.seconds / 2.0), p.starts)?;
@@ -187,8 +190,14 @@ pub fn run(run: &Path, p: Protocol, settings: &EvalSettings, out: &Path) -> Resu
         }
         let s = Snapshot { iteration: it, samples, wall_time_s, tracking: rows, push_t_fall_s, bars };
         eprintln!("{name} iteration {it}: {}", if s.meets_all() { "meets every bar" } else { "misses a bar" });
-        let c = Cached { protocol: protocol.clone(), checkpoint_crc32: crc, snapshot: s };
-        super::report::write_json(&dir, &format!("it{it:05}.result.json"), &c)?;
+        let c = Cached {
+            protocol: protocol.clone(),
+            checkpoint_crc32: crc,
+            seed,
+            planned_iterations: planned,
+            snapshot: s,
+        };
+        super::report::write_json(&dir, &result, &c)?;
         snapshots.push(c.snapshot);
     }
     Ok(RunProgress { run: name, seed, planned_iterations: planned, snapshots })

@@ -7,14 +7,14 @@ use anyhow::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::claims::MAX_COMPONENT_MAE;
+use super::claims::{worst_component, MAX_COMPONENT_MAE};
 use super::progress::{RunProgress, Snapshot};
 use super::results::RunCounts;
 use crate::plots::{err, register_font, whole_number};
 
-/// Worst component MAE of a snapshot (NaN-free: a missing value plots as 1).
+/// Worst component MAE of a snapshot, the value its MAE bar was judged on (an infinite one plots at the top).
 fn worst_mae(s: &Snapshot) -> f64 {
-    let w = s.tracking.iter().flat_map(|t| t.mae_whole).fold(0.0f64, f64::max);
+    let w = worst_component(&s.tracking).1;
     if w.is_finite() {
         w
     } else {
