@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand};
 
-use crate::eval_cmd;
+use crate::{eval_cmd, groups_cmd};
 
 #[derive(Parser)]
 #[command(
@@ -48,7 +48,7 @@ pub enum Cmd {
     /// All three experiments for O, C and C+A, with the paper's numbers beside ours and the heatmaps.
     Ablate {
         #[command(flatten)]
-        groups: eval_cmd::Groups,
+        groups: groups_cmd::Groups,
         /// The paper's full protocol (13 × 13 push grid, 100 noise runs per level) instead of the quick one.
         #[arg(long)]
         full: bool,
@@ -81,7 +81,7 @@ pub enum Cmd {
     /// the ground each was trained on: mean success with its 95 % interval, the hardest difficulty per type.
     Terrain {
         #[command(flatten)]
-        groups: eval_cmd::Groups,
+        groups: groups_cmd::Groups,
         #[command(flatten)]
         protocol: eval_cmd::TerrainArgs,
         /// Instead of running policies: join terrain.json files of earlier runs.
@@ -94,7 +94,7 @@ pub enum Cmd {
     /// long operator-driven run, in each sim2sim mode; the groups' numbers with the paper's and its three claims.
     Field {
         #[command(flatten)]
-        groups: eval_cmd::Groups,
+        groups: groups_cmd::Groups,
         /// The course file.
         #[arg(long, default_value = "assets/courses/indoor.toml")]
         course: PathBuf,
@@ -106,7 +106,7 @@ pub enum Cmd {
         minutes: f64,
         /// Sim2sim modes to run in (ideal, realistic, or files).
         #[arg(long, value_delimiter = ',', default_value = "ideal,realistic")]
-        modes: Vec<eval_cmd::Sim2SimArg>,
+        modes: Vec<groups_cmd::Sim2SimArg>,
         /// Instead of running policies: join field.json files of earlier runs.
         #[arg(long, num_args = 2.., conflicts_with_all = ["o", "c", "ca"])]
         merge: Vec<PathBuf>,

@@ -9,6 +9,7 @@ pub mod dashboard;
 pub mod eval;
 pub mod eval_cmd;
 pub mod export;
+pub mod groups_cmd;
 pub mod info;
 #[cfg(feature = "mpi")]
 pub mod mpi_comm;

@@ -7,7 +7,7 @@ use clap::Parser;
 
 use topa::cli::{BenchCmd, Cli, Cmd, ConfigCmd};
 use topa::eval::ablate::Extent;
-use topa::{bench, config_reference, eval_cmd, info, play, resolve_threads, train_cmd};
+use topa::{bench, config_reference, eval_cmd, groups_cmd, info, play, resolve_threads, train_cmd};
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
@@ -24,7 +24,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             eval_cmd::run_eval(cmd, common)
         }
         Cmd::Ablate { merge, field, terrain, common, .. } if !merge.is_empty() => {
-            eval_cmd::merge_ablations(&merge, [field.as_deref(), terrain.as_deref()], common)
+            groups_cmd::merge_ablations(&merge, [field.as_deref(), terrain.as_deref()], common)
         }
         Cmd::Ablate { groups, full, push_range, push_step, tracking_starts, field, terrain, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
@@ -32,20 +32,20 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             extent.push_range_n = push_range.unwrap_or(extent.push_range_n);
             extent.push_step_n = push_step.unwrap_or(extent.push_step_n);
             extent.tracking_starts = tracking_starts.unwrap_or(extent.tracking_starts);
-            eval_cmd::run_ablate(groups, extent, [field.as_deref(), terrain.as_deref()], common)
+            groups_cmd::run_ablate(groups, extent, [field.as_deref(), terrain.as_deref()], common)
         }
         Cmd::Terrain { merge, common, .. } if !merge.is_empty() => {
-            eval_cmd::report_terrain(&topa::eval::terrain_report::merge(&merge)?, &common)
+            groups_cmd::report_terrain(&topa::eval::terrain_report::merge(&merge)?, &common)
         }
         Cmd::Terrain { groups, protocol, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let policies = groups.policies()?;
             let p = protocol.protocol();
             let r = topa::eval::terrain_report::run(&policies, &common.settings()?, &p)?;
-            eval_cmd::report_terrain(&r, &common)
+            groups_cmd::report_terrain(&r, &common)
         }
         Cmd::Sysid(cmd) => topa::sysid_cmd::run(cmd),
-        Cmd::Field { merge, common, .. } if !merge.is_empty() => eval_cmd::merge_field(&merge, common),
+        Cmd::Field { merge, common, .. } if !merge.is_empty() => groups_cmd::merge_field(&merge, common),
         Cmd::Field { groups, course, speeds, minutes, modes, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let extent = topa::eval::field::FieldExtent {
@@ -55,7 +55,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 modes: modes.into_iter().map(|m| m.0).collect(),
                 operator: Default::default(),
             };
-            eval_cmd::run_field(groups, extent, common)
+            groups_cmd::run_field(groups, extent, common)
         }
         Cmd::Plot { runs, group, out } => {
             if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
