@@ -30,7 +30,7 @@ pub struct Common {
     /// torque–speed limits: configs/sim2sim/realistic.toml), or a TOML file with your own mix.
     #[arg(long, global = true, default_value = "ideal")]
     pub sim2sim: Sim2SimMode,
-    /// Integrator: model (the MJCF's RK4), euler, rk4, implicit.
+    /// Integrator: model (the sim2sim mode's own, else the MJCF's RK4), euler, rk4, implicit.
     #[arg(long, global = true, default_value = "model")]
     pub integrator: IntegratorChoice,
     /// Seed for the noise runs and env set-up.

@@ -188,6 +188,18 @@ impl GroupMode<'_> {
     }
 }
 
+/// The integrator and timestep a mode runs with, as this build resolves the mode (a result file names its modes,
+/// not their models).
+fn physics(base: &EvalSettings, mode: &Sim2SimMode) -> String {
+    match base.clone().with_sim2sim(mode) {
+        Ok(s) if s.integrator() == topa_env::IntegratorChoice::Model => {
+            format!(", the MJCF's integrator at {} s", s.timestep())
+        }
+        Ok(s) => format!(", {} at {} s", s.integrator(), s.timestep()),
+        Err(_) => String::new(),
+    }
+}
+
 /// The group table per mode, with the paper's numbers beside.
 pub fn markdown(f: &Field, paper: &PaperTables) -> String {
     let e = &f.extent;
@@ -200,8 +212,10 @@ pub fn markdown(f: &Field, paper: &PaperTables) -> String {
     );
     for mode in &e.modes {
         s.push_str(&format!(
-            "\n{mode} sim2sim:\n\n| Group | seeds | reach the goal | finish clean | best clean time, min (mean ± sd) | joint-limit hits/min | {} min without intervention | interventions in {} min |\n|---|---:|---:|---:|---:|---:|---:|---:|\n",
-            e.endurance_minutes, e.endurance_minutes
+            "\n{mode} sim2sim{}:\n\n| Group | seeds | reach the goal | finish clean | best clean time, min (mean ± sd) | joint-limit hits/min | {} min without intervention | interventions in {} min |\n|---|---:|---:|---:|---:|---:|---:|---:|\n",
+            physics(&f.settings, mode),
+            e.endurance_minutes,
+            e.endurance_minutes
         ));
         for g in by_group(f, mode) {
             let times: Vec<f64> = g.clean_times().iter().map(|t| t / 60.0).collect();
@@ -433,6 +447,14 @@ mod tests {
         );
         assert!(c[3].2.contains("interventions per seed: [2, 2, 2, 2, 2]"), "{}", c[3].2);
         assert!(claims_markdown(&field(vec![])).contains("| holds |"));
+    }
+
+    #[test]
+    fn each_modes_table_names_its_physics() {
+        let base = EvalSettings::default();
+        assert_eq!(physics(&base, &Sim2SimMode::Realistic), ", euler at 0.001 s");
+        assert_eq!(physics(&base, &Sim2SimMode::Ideal), ", the MJCF's integrator at 0.0025 s");
+        assert_eq!(physics(&base, &Sim2SimMode::File("no/such.toml".into())), "");
     }
 
     #[test]

@@ -122,7 +122,7 @@ impl Protocol {
             self.seconds,
             String::from(settings.sim2sim_mode.clone()),
             settings.timestep(),
-            format!("{:?}", settings.integrator).to_lowercase(),
+            settings.integrator().name(),
             settings.seed
         )
     }

@@ -19,7 +19,7 @@ pub struct EvalSettings {
     pub sim2sim_mode: Sim2SimMode,
     /// The sensor, estimator, latency and motor models (all off: ideal).
     pub sim2sim: Sim2SimConfig,
-    /// Model = the MJCF's RK4, which keeps the linkage exact.
+    /// Model = the sim2sim mode's own if it names one, else the MJCF's RK4.
     pub integrator: topa_env::IntegratorChoice,
     /// Standing still on a zero command before each experiment starts, s.
     pub settle_s: f64,
@@ -38,7 +38,7 @@ impl EvalSettings {
         let s = self;
         let mut c = runner.training_config().for_evaluation();
         c.robot = runner.robot().path.to_string_lossy().into_owned();
-        c.integrator = s.integrator;
+        c.integrator = s.integrator();
         // The evaluation model is the MJCF's: training's solver shortcuts stay in training.
         c.solver_iterations = None;
         c.solver_tolerance = None;
@@ -70,6 +70,14 @@ impl EvalSettings {
             Ok(v)
         };
         Ok(comparable(self)? == comparable(other)?)
+    }
+
+    /// The integrator the experiments run with: the one asked for, else the sim2sim mode's, else the MJCF's.
+    pub fn integrator(&self) -> topa_env::IntegratorChoice {
+        match self.integrator {
+            topa_env::IntegratorChoice::Model => self.sim2sim.integrator,
+            chosen => chosen,
+        }
     }
 
     pub fn timestep(&self) -> f64 {
@@ -170,5 +178,27 @@ mod tests {
         }
         let missing = EvalSettings::default().with_sim2sim(&Sim2SimMode::File("no/such.toml".into()));
         assert!(format!("{:#}", missing.unwrap_err()).contains("no/such.toml"));
+    }
+
+    #[test]
+    fn the_integrator_asked_for_wins_over_the_modes_which_wins_over_the_mjcfs() {
+        use topa_env::IntegratorChoice::*;
+        let ideal = EvalSettings::default().with_sim2sim(&Sim2SimMode::Ideal).unwrap();
+        assert_eq!((ideal.integrator(), ideal.timestep()), (Model, 0.0025));
+        let realistic = EvalSettings::default().with_sim2sim(&Sim2SimMode::Realistic).unwrap();
+        assert_eq!((realistic.integrator(), realistic.timestep()), (Euler, 0.001));
+        let rk4 = EvalSettings { integrator: Rk4, ..EvalSettings::default() }.with_sim2sim(&Sim2SimMode::Realistic);
+        assert_eq!(rk4.unwrap().integrator(), Rk4);
+        // A mode file may name its own; a misspelt one is refused naming the file.
+        let dir = std::env::temp_dir().join(format!("topa-integrator-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (own, bad) = (dir.join("own.toml"), dir.join("bad.toml"));
+        std::fs::write(&own, "integrator = \"implicit\"\n").unwrap();
+        std::fs::write(&bad, "integrator = \"verlet\"\n").unwrap();
+        let s = EvalSettings::default().with_sim2sim(&Sim2SimMode::File(own)).unwrap();
+        assert_eq!((s.integrator(), s.timestep()), (Implicit, 0.0025));
+        let e = EvalSettings::default().with_sim2sim(&Sim2SimMode::File(bad.clone())).unwrap_err();
+        assert!(format!("{e:#}").contains(&bad.display().to_string()), "{e:#}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

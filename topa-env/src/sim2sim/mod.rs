@@ -54,6 +54,9 @@ pub struct Sim2SimConfig {
     /// Physics timestep for evaluations run in this mode, s (0 = the evaluation's own). The motor drivers run
     /// their PD at kHz rates; MuJoCo applies the PD once per physics step.
     pub timestep: f64,
+    /// Integrator for evaluations run in this mode (model = the evaluation's own: the MJCF's). An `--integrator`
+    /// given on the command line wins.
+    pub integrator: crate::IntegratorChoice,
 }
 
 /// The state estimator: whether it runs, its contact detection, and the filter's noise (flattened into this table).
