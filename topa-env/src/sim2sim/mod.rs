@@ -56,7 +56,7 @@ pub struct Sim2SimConfig {
     pub timestep: f64,
     /// Integrator for evaluations run in this mode (model = the evaluation's own: the MJCF's). An `--integrator`
     /// given on the command line wins.
-    pub integrator: crate::IntegratorChoice,
+    pub integrator: crate::integrator::IntegratorChoice,
 }
 
 /// The state estimator: whether it runs, its contact detection, and the filter's noise (flattened into this table).
