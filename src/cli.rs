@@ -217,9 +217,14 @@ pub enum BenchCmd {
         /// Interleaved rounds (best kept).
         #[arg(long, default_value_t = 3)]
         rounds: usize,
-        /// Also the same envs on rough terrain (`[env.terrain]` defaults), as a ratio to the flat floor.
+        /// Also the same envs on rough terrain (`[env.terrain]` defaults), as a ratio to the flat floor, with
+        /// MuJoCo's box contacts and with the vertex contacts.
         #[arg(long)]
         terrain: bool,
+        /// The envs act with this policy (walking, under its training config) instead of random actions (which
+        /// fall); inference is not timed.
+        #[arg(long)]
+        policy: Option<std::path::PathBuf>,
     },
     /// Samples/s of a full PPO update (paper networks, 24 576 samples) at 1 and 2 threads, GFLOP/s, inference
     /// share of an iteration, and the torch reference if given.

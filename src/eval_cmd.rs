@@ -440,11 +440,16 @@ pub struct TerrainArgs {
     /// Height samples this far apart instead of the terrain's, m (a finer field has steeper stair risers).
     #[arg(long)]
     pub resolution: Option<f64>,
+    /// Box contacts with the ground: prisms (MuJoCo's, the evaluation's) or vertices (what a training config may
+    /// choose, to measure what it changes).
+    #[arg(long, default_value = "prisms")]
+    pub contacts: topa_env::terrain::BoxContacts,
 }
 
 impl TerrainArgs {
     pub fn protocol(self) -> terrain::Protocol {
         let (levels, runs, window_s) = (self.levels, self.runs, self.seconds);
-        terrain::Protocol { levels, runs, window_s, types: self.types, resolution: self.resolution }
+        let (types, resolution, contacts) = (self.types, self.resolution, self.contacts);
+        terrain::Protocol { levels, runs, window_s, types, resolution, contacts }
     }
 }

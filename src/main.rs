@@ -152,8 +152,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 bench::train::run(&a)
             }
         }
-        Cmd::Bench(BenchCmd::Env { model, envs, threads, integrator, seconds, rounds, terrain }) => {
-            bench::env::run(model, &envs, &threads, integrator, seconds, rounds, terrain)
+        Cmd::Bench(BenchCmd::Env { model, envs, threads, integrator, seconds, rounds, terrain, policy }) => {
+            let (kind, policy) = (model, policy.as_deref());
+            bench::env::run(&bench::env::EnvBench {
+                kind,
+                envs: &envs,
+                threads: &threads,
+                integrator,
+                seconds,
+                rounds,
+                terrain,
+                policy,
+            })
         }
     }
 }

@@ -7,6 +7,7 @@ pub mod ffi;
 mod data;
 mod error;
 mod guard;
+pub mod hfield_box;
 mod model;
 mod model_arrays;
 mod names;

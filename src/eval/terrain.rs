@@ -6,7 +6,7 @@
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 use topa_env::policy_runner::PolicyRunner;
-use topa_env::terrain::{TerrainConfig, TileKind};
+use topa_env::terrain::{BoxContacts, TerrainConfig, TileKind};
 use topa_env::{EnvConfig, RobotEnv};
 
 use super::runner::{run_batch, Experiment};
@@ -82,11 +82,14 @@ pub struct Protocol {
     pub types: Vec<TileKind>,
     /// Height samples this far apart instead of the terrain's, m (a finer field has steeper stair risers).
     pub resolution: Option<f64>,
+    /// Box contacts with the ground (MuJoCo's prisms unless measuring what a training choice changes).
+    pub contacts: BoxContacts,
 }
 
 impl Default for Protocol {
     fn default() -> Self {
-        Protocol { levels: 5, runs: 2, window_s: 10.0, types: Vec::new(), resolution: None }
+        let contacts = BoxContacts::Prisms;
+        Protocol { levels: 5, runs: 2, window_s: 10.0, types: Vec::new(), resolution: None, contacts }
     }
 }
 
@@ -104,6 +107,7 @@ pub fn evaluation_terrain(train: &EnvConfig, p: &Protocol) -> TerrainConfig {
         friction: [NOMINAL_FRICTION, NOMINAL_FRICTION],
         types: if p.types.is_empty() { base.types.clone() } else { p.types.clone() },
         resolution: p.resolution.unwrap_or(base.resolution),
+        contacts: p.contacts,
         ..base
     };
     t.curriculum.enabled = false;

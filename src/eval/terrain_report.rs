@@ -80,11 +80,14 @@ pub fn merge(files: &[PathBuf]) -> Result<TerrainReport> {
                     f.display()
                 );
                 let tiles = |x: &TerrainReport| {
-                    x.entries.first().map(|e| (e.result.terrain.types.clone(), e.result.terrain.resolution))
+                    x.entries.first().map(|e| {
+                        let t = &e.result.terrain;
+                        (t.types.clone(), t.resolution, t.contacts)
+                    })
                 };
                 ensure!(
                     tiles(o) == tiles(&r) || r.entries.is_empty(),
-                    "{} was made on other tiles (types or resolution) than the first file",
+                    "{} was made on other tiles (types, resolution or box contacts) than the first file",
                     f.display()
                 );
                 for e in r.entries {

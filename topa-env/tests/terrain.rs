@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use topa_env::terrain::{Terrain, TerrainConfig, TileKind, TERRAIN_NAME};
+use topa_env::terrain::{BoxContacts, Terrain, TerrainConfig, TileKind, TERRAIN_NAME};
 use topa_env::{assets, EnvConfig, ModelKind, RobotEnv, Task};
 
 fn on_terrain(levels: usize) -> EnvConfig {
@@ -33,7 +33,14 @@ fn stand(e: &mut RobotEnv, steps: usize) -> bool {
 
 #[test]
 fn the_feet_touch_the_heights_the_env_measures_from() {
-    let cfg = on_terrain(4);
+    for contacts in [BoxContacts::Prisms, BoxContacts::Vertices] {
+        feet_touch_the_measured_ground(contacts);
+    }
+}
+
+fn feet_touch_the_measured_ground(contacts: BoxContacts) {
+    let mut cfg = on_terrain(4);
+    cfg.terrain.contacts = contacts;
     let map = Terrain::shared(&cfg.terrain).unwrap();
     let mut e = env(&cfg, 0);
     // Rough ground: ±2 cm bumps every 10 cm, random, so a transposed or flipped field would not match.
@@ -41,15 +48,18 @@ fn the_feet_touch_the_heights_the_env_measures_from() {
     e.set_terrain_tile(Some((2, column(&cfg, TileKind::Rough)))).unwrap();
     let mut obs = vec![0.0; e.obs_dim()];
     e.reset(&mut obs).unwrap();
-    assert!(!stand(&mut e, 15), "the robot fell standing on rough ground");
+    assert!(!stand(&mut e, 15), "the robot fell standing on rough ground ({contacts:?})");
     let d = e.data();
     let field = d.model().id(mujoco_sys::ObjType::Geom, TERRAIN_NAME).unwrap();
     let touching: Vec<_> =
         d.contacts().iter().filter(|c| c.geom1 as usize == field || c.geom2 as usize == field).collect();
-    assert!(touching.len() >= 2, "{} contacts with the terrain", touching.len());
+    assert!(touching.len() >= 2, "{} contacts with the terrain ({contacts:?})", touching.len());
+    if contacts == BoxContacts::Vertices {
+        assert!(touching.len() <= 2 * mujoco_sys::hfield_box::MAX_CONTACTS, "{} contacts", touching.len());
+    }
     for c in touching {
         let ground = map.height_at(c.pos[0], c.pos[1]);
-        assert!((c.pos[2] - ground).abs() < 0.01, "contact at z {:.4}, terrain {:.4}", c.pos[2], ground);
+        assert!((c.pos[2] - ground).abs() < 0.01, "contact at z {:.4}, terrain {:.4} ({contacts:?})", c.pos[2], ground);
     }
     let stand_height = e.base_height_target();
     assert!((e.base_height() - stand_height).abs() < 0.03, "{} vs {stand_height}", e.base_height());

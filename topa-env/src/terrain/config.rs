@@ -58,6 +58,29 @@ impl TileKind {
     }
 }
 
+/// How a box (a sole, the torso) collides with the terrain.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum BoxContacts {
+    /// MuJoCo's own: a convex penetration test per triangular prism under the box, a contact per prism touched.
+    #[default]
+    Prisms,
+    /// The box's corners against the field's triangles and the field's samples against the box, reduced to the
+    /// four contacts spanning the patch and the deepest (`mujoco_sys::hfield_box`): cheaper, fewer constraints.
+    Vertices,
+}
+
+impl std::str::FromStr for BoxContacts {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "prisms" => Ok(BoxContacts::Prisms),
+            "vertices" => Ok(BoxContacts::Vertices),
+            _ => Err(format!("no box contacts '{s}': use prisms (MuJoCo's) or vertices")),
+        }
+    }
+}
+
 /// `[env.terrain]`. Pairs `[a, b]` are a parameter's value on the easiest row (difficulty 0) and the hardest
 /// (difficulty 1), linear in between. Defaults are legged_gym's terrain scaled to TopA's 0.4 m legs (ANYmal's are
 /// ~0.55 m, and its stairs reach 0.23 m): steps to 0.10 m, slopes to 15°, rough to ±3 cm.
@@ -100,6 +123,8 @@ pub struct TerrainConfig {
     pub friction: [f64; 2],
     /// Where robots start and how they move between rows.
     pub curriculum: CurriculumConfig,
+    /// How boxes collide with the terrain; evaluation uses MuJoCo's `prisms` whatever training used.
+    pub contacts: BoxContacts,
 }
 
 impl Default for TerrainConfig {
@@ -123,6 +148,7 @@ impl Default for TerrainConfig {
             obstacle_density: 1.25,
             friction: [0.5, 1.0],
             curriculum: CurriculumConfig::default(),
+            contacts: BoxContacts::Prisms,
         }
     }
 }

@@ -4,8 +4,9 @@
 
 use std::sync::Arc;
 
-use mujoco_sys::{Model, ObjType};
+use mujoco_sys::{hfield_box, Model, ObjType};
 
+use super::config::BoxContacts;
 use super::field::Terrain;
 use crate::error::{EnvError, Result};
 use crate::spec::RobotSpec;
@@ -17,7 +18,8 @@ pub const TERRAIN_NAME: &str = "terrain";
 /// Contact and constraint capacity on terrain, ~2× the largest use `topa bench memory --terrain` measured (512 envs
 /// × 300 steps, Euler and RK4, walking pushed, falling, lying and thrashing): 65 contacts, 276 constraint rows,
 /// 3556 mjtNum of stack (the stack ~6×: it grows with the square of the rows).
-const SIZE: &str = r#"<size nconmax="120" njmax="600" nstack="20000"/>"#;
+/// `nuser_geom`: the field's `user` value selects its box contacts (`mujoco_sys::hfield_box`).
+const SIZE: &str = r#"<size nconmax="120" njmax="600" nstack="20000" nuser_geom="1"/>"#;
 
 impl Terrain {
     /// Lowest and highest sample, m.
@@ -48,8 +50,12 @@ impl Terrain {
             w / 2.0,
             h / 2.0,
         );
+        let user = match self.cfg.contacts {
+            BoxContacts::Prisms => 0.0,
+            BoxContacts::Vertices => hfield_box::USER_VERTEX_CONTACTS,
+        };
         let worldbody = format!(
-            r#"  <geom name="{TERRAIN_NAME}" type="hfield" hfield="{TERRAIN_NAME}" pos="{} {} {lo}" contype="0" conaffinity="1" condim="3" friction="{MAPPED_FLOOR_FRICTION} 0.005 0.0001" material="terrain_mat" group="0"/>"#,
+            r#"  <geom name="{TERRAIN_NAME}" type="hfield" hfield="{TERRAIN_NAME}" user="{user}" pos="{} {} {lo}" contype="0" conaffinity="1" condim="3" friction="{MAPPED_FLOOR_FRICTION} 0.005 0.0001" material="terrain_mat" group="0"/>"#,
             w / 2.0,
             h / 2.0,
         );
@@ -58,6 +64,7 @@ impl Terrain {
 
     /// The robot on this terrain, and the friction under its feet.
     pub fn compile(&self, spec: &RobotSpec) -> Result<(Arc<Model>, FrictionMap)> {
+        hfield_box::install();
         let mut model = crate::world::compile(spec, &self.world())?;
         let m = Arc::make_mut(&mut model);
         let id = m.id(ObjType::Hfield, TERRAIN_NAME)?;

@@ -11,7 +11,7 @@ mod placement;
 mod scan;
 mod tiles;
 
-pub use config::{TerrainConfig, TileKind};
+pub use config::{BoxContacts, TerrainConfig, TileKind};
 pub use curriculum::{level_change, next_level, CurriculumConfig, LevelChange};
 pub use field::Terrain;
 pub use mjcf::TERRAIN_NAME;
