@@ -198,29 +198,32 @@ fn reduce(c: &mut Vec<Candidate>) {
         (0..c.len()).map(|i| (i, f(&c[i]))).filter(|x| x.1 > 1e-9).max_by(|a, b| a.1.total_cmp(&b.1)).map(|x| x.0)
     };
     let deepest = c[(0..c.len()).min_by(|&i, &j| c[i].dist.total_cmp(&c[j].dist)).unwrap_or(0)];
-    let mut keep: Vec<Candidate> = Vec::with_capacity(MAX_CONTACTS);
+    // Kept on the stack: this runs for every box on the field at every physics step.
+    let mut keep = [Candidate::default(); MAX_CONTACTS];
+    let mut n = 0;
     if let Some(i1) = pick(c, &|x| norm(sub(x.pos, deepest.pos))) {
         let p1 = c[i1].pos;
-        keep.push(c[i1]);
+        (keep[n], n) = (c[i1], n + 1);
         if let Some(i2) = pick(c, &|x| norm(sub(x.pos, p1))) {
             let p2 = c[i2].pos;
-            keep.push(c[i2]);
+            (keep[n], n) = (c[i2], n + 1);
             let line = sub(p2, p1);
             let side = |x: &Candidate| cross(line, sub(x.pos, p1));
             if let Some(i3) = pick(c, &|x| norm(side(x))) {
-                keep.push(c[i3]);
+                (keep[n], n) = (c[i3], n + 1);
                 let up = side(&c[i3]);
                 if let Some(i4) = pick(c, &|x| -dot(side(x), up) / norm(up)) {
-                    keep.push(c[i4]);
+                    (keep[n], n) = (c[i4], n + 1);
                 }
             }
         }
     }
-    let deepest_kept = keep.iter().map(|k| k.dist).fold(f64::INFINITY, f64::min);
+    let deepest_kept = keep[..n].iter().map(|k| k.dist).fold(f64::INFINITY, f64::min);
     if deepest.dist < deepest_kept - 1e-4 {
-        keep.push(deepest);
+        (keep[n], n) = (deepest, n + 1);
     }
-    *c = keep;
+    c.clear();
+    c.extend_from_slice(&keep[..n]);
 }
 
 /// MuJoCo's collision-function signature; geom 1 is the height field, geom 2 the box.
@@ -278,17 +281,23 @@ unsafe extern "C" fn hfield_box(
         }
     }
     let b = Box3 { pos, rot, half: std::array::from_fn(|i| *mm.geom_size.add(3 * g2 + i)) };
-    let mut found = Vec::with_capacity(32);
-    contacts(&field, &b, margin, &mut found);
-    for (k, c) in found.iter().enumerate() {
-        let out = &mut *con.add(k);
-        out.dist = c.dist;
-        let n = mul(mat1, c.normal);
-        let p = mul(mat1, c.pos);
-        out.frame = [n[0], n[1], n[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-        out.pos = [p[0] + pos1[0], p[1] + pos1[1], p[2] + pos1[2]];
-    }
-    found.len() as c_int
+    // One candidate buffer per thread, reused: no allocation on the physics step.
+    FOUND.with_borrow_mut(|found| {
+        contacts(&field, &b, margin, found);
+        for (k, c) in found.iter().enumerate() {
+            let out = &mut *con.add(k);
+            out.dist = c.dist;
+            let n = mul(mat1, c.normal);
+            let p = mul(mat1, c.pos);
+            out.frame = [n[0], n[1], n[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+            out.pos = [p[0] + pos1[0], p[1] + pos1[1], p[2] + pos1[2]];
+        }
+        found.len() as c_int
+    })
+}
+
+thread_local! {
+    static FOUND: std::cell::RefCell<Vec<Candidate>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 #[cfg(test)]

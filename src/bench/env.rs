@@ -97,14 +97,14 @@ pub fn run(a: &EnvBench) -> Result<()> {
     cfg.terrain.enabled = false;
     // The same envs on the terrain (the policy's, or `[env.terrain]`'s defaults), with each kind of box contact,
     // measured in the same rounds: its cost against the flat floor's is the number that matters.
-    let on_terrain: Vec<(BoxContacts, EnvConfig)> = if a.terrain {
+    let on_terrain: Vec<EnvConfig> = if a.terrain {
         [BoxContacts::Prisms, BoxContacts::Vertices]
             .into_iter()
             .map(|contacts| {
                 let mut t = cfg.clone();
                 t.terrain.enabled = true;
                 t.terrain.contacts = contacts;
-                (contacts, t)
+                t
             })
             .collect()
     } else {
@@ -120,7 +120,7 @@ pub fn run(a: &EnvBench) -> Result<()> {
         phys = phys.max(physics_steps_per_second(&cfg, a.seconds)?);
         for (i, &(n, t)) in configs.iter().enumerate() {
             best[i] = best[i].max(timed_steps(&cfg, n, t, a.seconds, &mut actor)?);
-            for (k, (_, tc)) in on_terrain.iter().enumerate() {
+            for (k, tc) in on_terrain.iter().enumerate() {
                 best_terrain[i][k] = best_terrain[i][k].max(timed_steps(tc, n, t, a.seconds, &mut actor)?);
             }
         }
