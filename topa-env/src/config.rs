@@ -173,6 +173,9 @@ pub struct CommandConfig {
     pub resample_s: f64,
     /// Share of commands that are "stand still" (all zero).
     pub standing_share: f64,
+    /// Share of commands that turn in place (v_x = v_y = 0, w_z drawn from `ang_vel_z`); ours, not in the paper:
+    /// uniform draws almost never give a pure turn, the command the policies learn last.
+    pub turn_share: f64,
     /// Linear commands below this norm are zeroed (a tiny command is indistinguishable from standing), m/s.
     pub min_lin_norm: f64,
 }
@@ -185,6 +188,7 @@ impl Default for CommandConfig {
             ang_vel_z: [-1.2, 1.2],
             resample_s: 5.0,
             standing_share: 0.1,
+            turn_share: 0.0,
             min_lin_norm: 0.05,
         }
     }
@@ -467,8 +471,12 @@ impl EnvConfig {
         check_range("commands.lin_vel_y", self.commands.lin_vel_y)?;
         check_range("commands.ang_vel_z", self.commands.ang_vel_z)?;
         check_positive("commands.resample_s", self.commands.resample_s)?;
-        if !(0.0..=1.0).contains(&self.commands.standing_share) {
-            return Err(EnvError::Config("commands.standing_share must be in [0, 1]".into()));
+        let c = &self.commands;
+        if !(0.0..=1.0).contains(&c.standing_share) || !(0.0..=1.0).contains(&c.turn_share) {
+            return Err(EnvError::Config("commands.standing_share and turn_share must be in [0, 1]".into()));
+        }
+        if c.standing_share + c.turn_share > 1.0 {
+            return Err(EnvError::Config("commands.standing_share + commands.turn_share must be at most 1".into()));
         }
         let r = &self.rewards;
         for (name, v) in [

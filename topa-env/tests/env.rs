@@ -428,3 +428,36 @@ fn a_held_command_offset_changes_only_at_the_hold_boundaries() {
     let err = bad.validate().unwrap_err().to_string();
     assert!(err.contains("adversary.command_hold_s"), "{err}");
 }
+
+/// The command mix: `standing_share` of the commands all zero, `turn_share` turning in place (no linear part, a
+/// yaw rate inside its range), the rest drawn from the three ranges; shares summing past one are refused.
+#[test]
+fn commands_stand_turn_in_place_and_move_in_their_shares() {
+    let mut cfg = quiet(ModelKind::Closed);
+    cfg.commands.standing_share = 0.1;
+    cfg.commands.turn_share = 0.3;
+    let mut e = env(cfg, 3);
+    let mut obs = vec![0.0; OBS_DIM];
+    let n = 3000;
+    let (mut standing, mut turning) = (0, 0);
+    for _ in 0..n {
+        e.reset(&mut obs).unwrap();
+        let c = e.command();
+        assert!(c[2].abs() <= 1.2, "{c:?}");
+        match (c[0] == 0.0 && c[1] == 0.0, c[2] == 0.0) {
+            (true, true) => standing += 1,
+            (true, false) => turning += 1,
+            _ => {}
+        }
+    }
+    // Binomial sd at n = 3000: 0.005 (standing), 0.008 (turning); 4 sd either side. Uniform draws give a pure turn
+    // only when the linear norm falls under 0.05 m/s (< 0.6 % of them).
+    let (s, t) = (standing as f64 / n as f64, turning as f64 / n as f64);
+    assert!((s - 0.1).abs() < 0.02, "standing share {s}");
+    assert!((t - 0.3).abs() < 0.035, "turn-in-place share {t}");
+    let mut bad = quiet(ModelKind::Closed);
+    bad.commands.standing_share = 0.5;
+    bad.commands.turn_share = 0.6;
+    let err = bad.validate().unwrap_err().to_string();
+    assert!(err.contains("commands.turn_share"), "{err}");
+}

@@ -268,11 +268,17 @@ impl RobotEnv {
 
     fn sample_command(&mut self) {
         let c = &self.cfg.commands;
-        if self.rng.random::<f64>() < c.standing_share {
+        // One draw picks the kind, so a zero turn_share leaves every seed's command stream as it was.
+        let kind = self.rng.random::<f64>();
+        if kind < c.standing_share {
             self.command = [0.0; 3];
             return;
         }
         let mut draw = |r: [f64; 2]| if r[1] > r[0] { self.rng.random_range(r[0]..r[1]) } else { r[0] };
+        if kind < c.standing_share + c.turn_share {
+            self.command = [0.0, 0.0, draw(c.ang_vel_z)];
+            return;
+        }
         let mut cmd = [draw(c.lin_vel_x), draw(c.lin_vel_y), draw(c.ang_vel_z)];
         if cmd[0].hypot(cmd[1]) < c.min_lin_norm {
             cmd[0] = 0.0;
