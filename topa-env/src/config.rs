@@ -472,11 +472,16 @@ impl EnvConfig {
         check_range("commands.ang_vel_z", self.commands.ang_vel_z)?;
         check_positive("commands.resample_s", self.commands.resample_s)?;
         let c = &self.commands;
-        if !(0.0..=1.0).contains(&c.standing_share) || !(0.0..=1.0).contains(&c.turn_share) {
-            return Err(EnvError::Config("commands.standing_share and turn_share must be in [0, 1]".into()));
+        for (name, share) in [("commands.standing_share", c.standing_share), ("commands.turn_share", c.turn_share)] {
+            if !(0.0..=1.0).contains(&share) {
+                return Err(EnvError::Config(format!("{name} = {share} must be in [0, 1]")));
+            }
         }
         if c.standing_share + c.turn_share > 1.0 {
-            return Err(EnvError::Config("commands.standing_share + commands.turn_share must be at most 1".into()));
+            return Err(EnvError::Config(format!(
+                "commands.standing_share + commands.turn_share = {} must be at most 1: lower one of them",
+                c.standing_share + c.turn_share
+            )));
         }
         let r = &self.rewards;
         for (name, v) in [

@@ -459,5 +459,8 @@ fn commands_stand_turn_in_place_and_move_in_their_shares() {
     bad.commands.standing_share = 0.5;
     bad.commands.turn_share = 0.6;
     let err = bad.validate().unwrap_err().to_string();
-    assert!(err.contains("commands.turn_share"), "{err}");
+    assert!(err.contains("commands.turn_share") && err.contains("at most 1"), "{err}");
+    bad.commands.turn_share = -0.1;
+    let err = bad.validate().unwrap_err().to_string();
+    assert!(err.contains("commands.turn_share = -0.1"), "{err}");
 }
