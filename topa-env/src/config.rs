@@ -451,6 +451,13 @@ fn check_positive(name: &str, v: f64) -> Result<()> {
     Ok(())
 }
 
+fn check_share(name: &str, v: f64) -> Result<()> {
+    if !(0.0..=1.0).contains(&v) {
+        return Err(EnvError::Config(format!("{name} must be in [0, 1], got {v}")));
+    }
+    Ok(())
+}
+
 impl EnvConfig {
     /// Rejects values the env cannot run with, naming the key.
     pub fn validate(&self) -> Result<()> {
@@ -472,11 +479,8 @@ impl EnvConfig {
         check_range("commands.ang_vel_z", self.commands.ang_vel_z)?;
         check_positive("commands.resample_s", self.commands.resample_s)?;
         let c = &self.commands;
-        for (name, share) in [("commands.standing_share", c.standing_share), ("commands.turn_share", c.turn_share)] {
-            if !(0.0..=1.0).contains(&share) {
-                return Err(EnvError::Config(format!("{name} = {share} must be in [0, 1]")));
-            }
-        }
+        check_share("commands.standing_share", c.standing_share)?;
+        check_share("commands.turn_share", c.turn_share)?;
         if c.standing_share + c.turn_share > 1.0 {
             return Err(EnvError::Config(format!(
                 "commands.standing_share + commands.turn_share = {} must be at most 1: lower one of them",
