@@ -250,12 +250,17 @@ pub fn tracking_bars(who: &str, tracking: &[super::results::TrackingRow]) -> Vec
                 100.0 * MIN_CLEARANCE_M
             ),
             holds: Some(ok),
-            evidence: format!(
-                "air {:.3} s, clearance {:.1} cm, {:.2} steps/s",
-                g.air_time_s,
-                100.0 * g.clearance_m,
-                g.steps_per_s
-            ),
+            // A policy that never lifts a foot has no air time or clearance to average (NaN): say so instead.
+            evidence: if g.air_time_s.is_finite() {
+                format!(
+                    "air {:.3} s, clearance {:.1} cm, {:.2} steps/s",
+                    g.air_time_s,
+                    100.0 * g.clearance_m,
+                    g.steps_per_s
+                )
+            } else {
+                "no step taken".into()
+            },
             undecided: "–",
         });
     }
@@ -394,5 +399,18 @@ mod tests {
         // No O group: no ordering verdict.
         let single = vec![policy("C", 1, 8.0, [90.0, 40.0], 0.1, 0.25), policy("CA", 1, 9.5, [95.0, 60.0], 0.1, 0.25)];
         assert_eq!(verdict(&check(&group(&single), FULL), "mean t_fall (standing pushes): O < C < C+A"), None);
+    }
+
+    #[test]
+    fn a_policy_that_never_steps_fails_the_gait_bar_and_says_why() {
+        let gait = |air: f64| {
+            let p = policy("C", 1, 9.0, [90.0, 80.0], 0.1, air);
+            tracking_bars("C", &p.tracking).into_iter().find(|c| c.statement.contains("gait")).unwrap()
+        };
+        let still = gait(f64::NAN);
+        assert_eq!((still.holds, still.evidence.as_str()), (Some(false), "no step taken"));
+        let walking = gait(0.3);
+        assert_eq!(walking.holds, Some(true));
+        assert!(walking.evidence.starts_with("air 0.300 s, clearance 3.5 cm"), "{}", walking.evidence);
     }
 }

@@ -141,6 +141,19 @@ struct Cached {
     snapshot: Snapshot,
 }
 
+/// The tracking bars of run `name` at iteration `it`.
+fn tracking_bars(name: &str, it: usize, rows: &[TrackingRow]) -> Vec<Bar> {
+    claims::tracking_bars(&format!("{name} iteration {it}"), rows)
+        .into_iter()
+        .map(|c| Bar { holds: c.holds == Some(true), statement: c.statement, evidence: c.evidence })
+        .collect()
+}
+
+/// The end of the push bar's statement (C+A's bar on the standing push grid).
+fn push_bar() -> String {
+    format!("push mean t_fall ≥ {} s", claims::MIN_CA_T_FALL_S)
+}
+
 fn cached(file: &Path, protocol: &str, crc: u32) -> Option<Cached> {
     let c: Cached = serde_json::from_str(&std::fs::read_to_string(file).ok()?).ok()?;
     (c.protocol == protocol && c.checkpoint_crc32 == crc).then_some(c)
@@ -163,7 +176,12 @@ pub fn run(run: &Path, p: Protocol, settings: &EvalSettings, out: &Path) -> Resu
         let result = format!("it{it:05}.result.json");
         if let Some(c) = cached(&dir.join(&result), &protocol, crc) {
             (seed, planned) = (c.seed, c.planned_iterations);
-            snapshots.push(c.snapshot);
+            // Tracking bars are re-derived from the cached rows, so a report follows the current bars' wording and
+            // limits; the push bar is kept as evaluated.
+            let mut s = c.snapshot;
+            let push = s.bars.into_iter().filter(|b| b.statement.ends_with(&push_bar()));
+            s.bars = tracking_bars(&name, it, &s.tracking).into_iter().chain(push).collect();
+            snapshots.push(s);
             continue;
         }
         let policy = crate::train_cmd::export_checkpoint(&sidecar, &dir.join(format!("it{it:05}")))?;
@@ -173,17 +191,14 @@ pub fn run(run: &Path, p: Protocol, settings: &EvalSettings, out: &Path) -> Resu
         let (samples, wall_time_s) = (prov.samples, prov.wall_time_s);
         let with_adversary = prov.with_adversary;
         let rows = tracking::run(&mut runner, settings, p.seconds, 2.0_f64.min(p.seconds / 2.0), p.starts)?;
-        let mut bars: Vec<Bar> = claims::tracking_bars(&format!("{name} iteration {it}"), &rows)
-            .into_iter()
-            .map(|c| Bar { holds: c.holds == Some(true), statement: c.statement, evidence: c.evidence })
-            .collect();
+        let mut bars = tracking_bars(&name, it, &rows);
         let push_t_fall_s = match p.push_step {
             Some(step) => Some(push::run(&mut runner, settings, 30.0, step, 10.0, [0.0; 3])?.mean_t_fall()),
             None => None,
         };
         if let (Some(t), true) = (push_t_fall_s, with_adversary) {
             bars.push(Bar {
-                statement: format!("{name} iteration {it}: push mean t_fall ≥ {} s", claims::MIN_CA_T_FALL_S),
+                statement: format!("{name} iteration {it}: {}", push_bar()),
                 holds: t >= claims::MIN_CA_T_FALL_S,
                 evidence: format!("{t:.2} s"),
             });
