@@ -179,7 +179,8 @@ pub fn run(run: &Path, p: Protocol, settings: &EvalSettings, out: &Path) -> Resu
             // Tracking bars are re-derived from the cached rows, so a report follows the current bars' wording and
             // limits; the push bar is kept as evaluated.
             let mut s = c.snapshot;
-            let push = s.bars.into_iter().filter(|b| b.statement.ends_with(&push_bar()));
+            let push_end = push_bar();
+            let push = s.bars.into_iter().filter(|b| b.statement.ends_with(&push_end));
             s.bars = tracking_bars(&name, it, &s.tracking).into_iter().chain(push).collect();
             snapshots.push(s);
             continue;

@@ -450,8 +450,8 @@ fn commands_stand_turn_in_place_and_move_in_their_shares() {
             _ => {}
         }
     }
-    // Binomial sd at n = 3000: 0.0055 (standing), 0.0084 (turning); the bounds are ~3.6 and ~4.2 sd. Uniform draws give a pure turn
-    // only when the linear norm falls under 0.05 m/s (< 0.6 % of them).
+    // Binomial sd at n = 3000: 0.0055 (standing), 0.0084 (turning); the bounds are ~3.6 and ~4.2 sd. Uniform
+    // draws give a pure turn only when the linear norm falls under 0.05 m/s (< 0.6 % of them).
     let (s, t) = (standing as f64 / n as f64, turning as f64 / n as f64);
     assert!((s - 0.1).abs() < 0.02, "standing share {s}");
     assert!((t - 0.3).abs() < 0.035, "turn-in-place share {t}");
