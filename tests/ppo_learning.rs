@@ -72,6 +72,26 @@ fn checkpoint_then_resume_equals_the_straight_run_bit_for_bit() {
 }
 
 #[test]
+fn an_entropy_decay_acts_on_the_updates_through_the_bonus_alone() {
+    let run = |entropy: f64, end: f64, decay: usize| {
+        let mut cfg = cartpole_config(5, 4);
+        (cfg.ppo.entropy_coef, cfg.ppo.entropy_coef_end, cfg.ppo.entropy_decay_iterations) = (entropy, end, decay);
+        let mut t = cartpole_trainer(&cfg, false);
+        let mut after = Vec::new();
+        for _ in 0..4 {
+            t.iterate().unwrap();
+            after.push(weights(&t));
+        }
+        after
+    };
+    let constant = run(0.05, 0.0, 0);
+    assert_eq!(run(0.05, 0.05, 3), constant, "a decay to the same weight is the constant bonus, bit for bit");
+    let decayed = run(0.05, 0.0, 1);
+    assert_eq!(decayed[0], constant[0], "iteration 0 updates with the starting weight");
+    assert_ne!(decayed[3], constant[3], "from iteration 1 the bonus is gone");
+}
+
+#[test]
 fn a_corrupt_or_mismatched_checkpoint_is_a_clear_error() {
     let cfg = cartpole_config(4, 1);
     let mut t = cartpole_trainer(&cfg, false);

@@ -185,6 +185,16 @@ fn adaptive_learning_rate_moves_the_right_way() {
 }
 
 #[test]
+fn the_entropy_bonus_decays_linearly_then_holds() {
+    let mut p = PpoConfig { entropy_coef: 0.03, entropy_coef_end: 0.01, ..PpoConfig::default() };
+    assert_eq!(p.entropy_coef_at(700), 0.03, "no decay without its iterations");
+    p.entropy_decay_iterations = 400;
+    for (it, want) in [(0, 0.03), (100, 0.025), (200, 0.02), (400, 0.01), (10_000, 0.01)] {
+        assert!((p.entropy_coef_at(it) - want).abs() < 1e-15, "iteration {it}: {}", p.entropy_coef_at(it));
+    }
+}
+
+#[test]
 fn a_nan_loss_skips_the_update_and_keeps_the_weights() {
     let mut a = agent(7, true, LossConfig::default());
     let mut r = Rollout::new(4, 8, 42, 10);
@@ -229,6 +239,8 @@ fn unknown_or_invalid_config_keys_are_clear_errors() {
     assert!(err.contains("sigma_v") && err.contains("env.toml"), "{err}");
     let err = format!("{:#}", load_config(&write("env2.toml", "[env.rewards]\nsigma_vv = 1.0\n")).unwrap_err());
     assert!(err.contains("sigma_vv") && err.contains("env2.toml"), "{err}");
+    let err = TrainConfig::load(&write("ent.toml", "[ppo]\nentropy_coef_end = -0.01\n")).unwrap_err().to_string();
+    assert!(err.contains("ppo.entropy_coef_end must be ≥ 0"), "{err}");
     let err = TrainConfig::load(&write("adv.toml", "[adversary]\nattack_share = 1.5\n")).unwrap_err().to_string();
     assert!(err.contains("adversary.attack_share"), "{err}");
     let (ok, ok_env) =

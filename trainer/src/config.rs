@@ -82,8 +82,15 @@ pub struct PpoConfig {
     pub minibatches: usize,
     /// Weight of the value loss (rsl_rl's default; not in the paper's table).
     pub value_loss_coef: f64,
-    /// Weight of the policy's entropy bonus (rsl_rl's default; not in the paper's table).
+    /// Weight of the policy's entropy bonus (rsl_rl's default; not in the paper's table); with
+    /// `entropy_decay_iterations`, its weight at iteration 0.
     pub entropy_coef: f64,
+    /// The entropy bonus's weight from iteration `entropy_decay_iterations` on (ours; used only with a decay).
+    pub entropy_coef_end: f64,
+    /// Iterations over which the entropy bonus's weight falls linearly from `entropy_coef` to `entropy_coef_end`
+    /// (ours; 0: `entropy_coef` throughout, as rsl_rl). Counted from the run's first iteration, so a resumed or
+    /// extended run follows the same schedule.
+    pub entropy_decay_iterations: usize,
     /// Clip the value function's change like the policy ratio (rsl_rl's default; not in the paper's table).
     pub clip_value_loss: bool,
     /// Lower bound of the adaptive learning rate.
@@ -92,6 +99,17 @@ pub struct PpoConfig {
     pub lr_max: f64,
     /// Adaptive learning rate from the KL (rsl_rl "adaptive" schedule); false keeps it fixed.
     pub adaptive_lr: bool,
+}
+
+impl PpoConfig {
+    /// The entropy bonus's weight at `iteration` (0-based) of the run.
+    pub fn entropy_coef_at(&self, iteration: usize) -> f64 {
+        if self.entropy_decay_iterations == 0 {
+            return self.entropy_coef;
+        }
+        let f = (iteration as f64 / self.entropy_decay_iterations as f64).min(1.0);
+        self.entropy_coef + f * (self.entropy_coef_end - self.entropy_coef)
+    }
 }
 
 impl Default for PpoConfig {
@@ -107,6 +125,8 @@ impl Default for PpoConfig {
             minibatches: 4,
             value_loss_coef: 1.0,
             entropy_coef: 0.01,
+            entropy_coef_end: 0.0,
+            entropy_decay_iterations: 0,
             clip_value_loss: true,
             lr_min: 1e-5,
             lr_max: 1e-2,
@@ -271,6 +291,11 @@ impl TrainConfig {
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(format!("{k} must be positive, got {v}"));
+            }
+        }
+        for (k, v) in [("ppo.entropy_coef", p.entropy_coef), ("ppo.entropy_coef_end", p.entropy_coef_end)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("{k} must be ≥ 0, got {v}"));
             }
         }
         if self.network.actor_hidden.is_empty() || self.network.critic_hidden.is_empty() {
