@@ -293,11 +293,6 @@ impl TrainConfig {
                 return Err(format!("{k} must be positive, got {v}"));
             }
         }
-        for (k, v) in [("ppo.entropy_coef", p.entropy_coef), ("ppo.entropy_coef_end", p.entropy_coef_end)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(format!("{k} must be ≥ 0, got {v}"));
-            }
-        }
         if self.network.actor_hidden.is_empty() || self.network.critic_hidden.is_empty() {
             return Err("network hidden layer lists must not be empty".into());
         }
@@ -305,8 +300,14 @@ impl TrainConfig {
         if !(0.0..=1.0).contains(&a.attack_share) {
             return Err(format!("adversary.attack_share must be in [0, 1], got {}", a.attack_share));
         }
-        if !(a.entropy_coef.is_finite() && a.entropy_coef >= 0.0) {
-            return Err(format!("adversary.entropy_coef must be ≥ 0, got {}", a.entropy_coef));
+        for (k, v) in [
+            ("ppo.entropy_coef", p.entropy_coef),
+            ("ppo.entropy_coef_end", p.entropy_coef_end),
+            ("adversary.entropy_coef", a.entropy_coef),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("{k} must be ≥ 0, got {v}"));
+            }
         }
         if self.losses.symmetry_coef < 0.0 || self.losses.decay_coef < 0.0 {
             return Err("losses.symmetry_coef and losses.decay_coef must be ≥ 0".into());

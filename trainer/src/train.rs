@@ -119,8 +119,7 @@ impl Trainer {
             let mut ppo = cfg.ppo.clone();
             ppo.learning_rate = a.learning_rate;
             ppo.entropy_coef = a.entropy_coef;
-            ppo.entropy_decay_iterations = 0; // the decay is the policy's
-                                              // No symmetry or decay for the adversary: the paper applies them to the locomotion policy.
+            // No symmetry or decay for the adversary: the paper applies them to the locomotion policy.
             let losses = LossConfig { symmetry_coef: 0.0, decay_coef: 0.0 };
             let agent = Agent::new(ac, ppo, losses, None);
             let sched =
@@ -194,6 +193,7 @@ impl Trainer {
         let t_update = Instant::now();
         let (mut policy_stats, mut adversary_stats) = (None, None);
         if pos.phase.policy_learns() {
+            // The entropy schedule is the policy's; the adversary's bonus stays `adversary.entropy_coef`.
             self.policy.ppo.entropy_coef = self.cfg.ppo.entropy_coef_at(self.iteration);
             policy_stats = Some(self.policy.update(&self.policy_rollout, &mut self.rng)?);
         } else if let (Some(a), Some(r)) = (&mut self.adversary, &self.adversary_rollout) {
