@@ -71,7 +71,7 @@ pub fn task_env(cfg: &TrainConfig) -> Result<Box<dyn VecEnv>> {
 fn rank_env(cfg: &TrainConfig, comm: &dyn Comm) -> Result<Box<dyn VecEnv>> {
     let (size, rank) = (comm.size(), comm.rank());
     let n = cfg.run.num_envs;
-    if n % size != 0 {
+    if !n.is_multiple_of(size) {
         bail!("run.num_envs = {n} does not split over {size} MPI ranks: choose a multiple of {size}");
     }
     let share = n / size;

@@ -79,7 +79,7 @@ static WARNINGS_SEEN: AtomicU64 = AtomicU64::new(0);
 
 extern "C" fn log_warning(msg: *const c_char) {
     let n = WARNINGS_SEEN.fetch_add(1, Ordering::Relaxed);
-    if n < 20 || n % 1000 == 0 {
+    if n < 20 || n.is_multiple_of(1000) {
         // SAFETY: the shim always passes a NUL-terminated string.
         let text = unsafe { CStr::from_ptr(msg) }.to_string_lossy();
         log::warn!(target: "mujoco", "{text} (MuJoCo warning #{})", n + 1);

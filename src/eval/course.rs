@@ -244,7 +244,7 @@ impl Follower {
         self.steps += 1;
         self.off_path_sum += off;
         self.run.max_off_path_m = self.run.max_off_path_m.max(off);
-        if self.steps % ((0.25 / task.config().policy_dt()).round().max(1.0) as usize) == 0 {
+        if self.steps.is_multiple_of((0.25 / task.config().policy_dt()).round().max(1.0) as usize) {
             self.run.trajectory.push(xy);
         }
         self.limits.observe(&st.joint_pos, &task.indices().joint_range);

@@ -46,7 +46,7 @@ impl Experiment for Noise {
         task.set_command_override(Some(c));
     }
     fn control(&mut self, step: usize, env: usize, task: &mut RobotEnv) {
-        if step > 0 && step % self.every == 0 {
+        if step > 0 && step.is_multiple_of(self.every) {
             let c = self.draw(env);
             task.set_command_override(Some(c));
         }

@@ -554,7 +554,7 @@ impl Task for RobotEnv {
         // A held command offset changes only at the hold's boundaries, counted from the episode's start (so a
         // snapshot needs nothing beyond the offset itself).
         let hold = self.cfg.adversary.command_hold_s;
-        if hold > 0.0 && self.step_count % self.steps_of(hold) != 0 {
+        if hold > 0.0 && !self.step_count.is_multiple_of(self.steps_of(hold)) {
             self.perturbation.command_offset = held.command_offset;
         }
     }

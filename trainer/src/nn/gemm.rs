@@ -23,6 +23,26 @@ pub(crate) fn own_kernel() -> bool {
     *OWN.get_or_init(|| kernels::has_avx2_fma() && std::env::var("NN_GEMM").map_or(true, |v| v != "crate"))
 }
 
+/// Whether products of [`own_kernel`] take the AVX-512 kernel for pairs of panels: when the CPU has AVX-512F,
+/// unless `NN_GEMM=avx2` (or `crate`) asks otherwise (read once). Both kernels give bit-identical results.
+pub(crate) fn wide_kernel() -> bool {
+    #[cfg(test)]
+    if tests::FORCE_AVX2.with(|f| f.get()) {
+        return false;
+    }
+    static WIDE: OnceLock<bool> = OnceLock::new();
+    *WIDE.get_or_init(|| {
+        #[cfg(target_arch = "x86_64")]
+        {
+            own_kernel() && avx512::available() && std::env::var("NN_GEMM").map_or(true, |v| v != "avx2")
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            false
+        }
+    })
+}
+
 /// Rows of the register tile.
 pub(crate) const MR: usize = 6;
 /// Columns of the register tile (two 8-lane vectors).
@@ -137,80 +157,6 @@ impl PackedB {
     }
 }
 
-/// Packs `B[0..kc, 0..n]` into `n/NR` panels of `kc × NR` (zero-padded columns).
-///
-/// # Safety
-/// `b` must be readable over `kc × n` at its strides and `dst` writable for `n.div_ceil(NR) · kc · NR` floats.
-unsafe fn pack_b_block(kc: usize, n: usize, b: MatRef, dst: *mut f32) {
-    let panels = n.div_ceil(NR);
-    if b.cs == 1 {
-        // Row-major source (activations, W in `dZ·W`): read each row once, in order, and deal it to the panels.
-        let tail = n % NR;
-        for p in 0..kc {
-            let src = b.ptr.offset(p as isize * b.rs);
-            for jp in 0..n / NR {
-                std::ptr::copy_nonoverlapping(src.add(jp * NR), dst.add(jp * kc * NR + p * NR), NR);
-            }
-            if tail != 0 {
-                let d = dst.add((panels - 1) * kc * NR + p * NR);
-                std::ptr::copy_nonoverlapping(src.add(n - tail), d, tail);
-                std::ptr::write_bytes(d.add(tail), 0, NR - tail);
-            }
-        }
-        return;
-    }
-    for jp in 0..panels {
-        let j0 = jp * NR;
-        let w = NR.min(n - j0);
-        let d = dst.add(jp * kc * NR);
-        if b.rs == 1 {
-            // Column-major source (Wᵀ in the forward): walk each column contiguously.
-            for jj in 0..NR {
-                if jj < w {
-                    let col = b.ptr.offset((j0 + jj) as isize * b.cs);
-                    for p in 0..kc {
-                        *d.add(p * NR + jj) = *col.add(p);
-                    }
-                } else {
-                    for p in 0..kc {
-                        *d.add(p * NR + jj) = 0.0;
-                    }
-                }
-            }
-        } else {
-            for p in 0..kc {
-                for jj in 0..NR {
-                    *d.add(p * NR + jj) = if jj < w { b.at(p, j0 + jj) } else { 0.0 };
-                }
-            }
-        }
-    }
-}
-
-/// Packs `A[0..mc, 0..kc]` into panels of `MR` rows (`kc × MR` each, rows past `mc` zero).
-///
-/// # Safety
-/// `a` must be readable over `mc × kc` at its strides and `dst` writable for `mc.div_ceil(MR) · kc · MR` floats.
-unsafe fn pack_a_block(mc: usize, kc: usize, a: MatRef, dst: *mut f32) {
-    for ip in 0..mc.div_ceil(MR) {
-        let i0 = ip * MR;
-        let h = MR.min(mc - i0);
-        let d = dst.add(ip * kc * MR);
-        if a.rs == 1 && h == MR {
-            // Aᵀ row-major (the weight gradient's dZᵀ): MR consecutive floats per k.
-            for p in 0..kc {
-                std::ptr::copy_nonoverlapping(a.ptr.offset(p as isize * a.cs + i0 as isize), d.add(p * MR), MR);
-            }
-        } else {
-            for p in 0..kc {
-                for ii in 0..MR {
-                    *d.add(p * MR + ii) = if ii < h { a.at(i0 + ii, p) } else { 0.0 };
-                }
-            }
-        }
-    }
-}
-
 /// What to do with a finished tile before storing it.
 #[derive(Clone, Copy)]
 pub(crate) enum Epilogue<'a> {
@@ -245,8 +191,8 @@ pub(crate) unsafe fn matmul_packed(
     }
     #[cfg(target_arch = "x86_64")]
     if b.src.is_none() {
-        // Packed, hence our kernel (AVX2/FMA present).
-        avx2::matmul(m, n, k, a, b, c, ldc, accumulate, epi);
+        // Packed, hence our kernel (AVX2/FMA present), its panels in pairs where AVX-512 is.
+        avx2::matmul(m, n, k, a, b, c, ldc, accumulate, epi, wide_kernel());
         return;
     }
     let (ptr, rs, cs) = b.src.expect("PackedB::pack was called");
@@ -479,12 +425,13 @@ mod avx2 {
         }
     }
 
-    /// Blocked product: for each block of [`MC`] rows of `A`, for each k-block, for each panel of `B`, for each
-    /// `MR` rows: the kernel. `A` is read in place when its rows are contiguous (cs = 1), else packed per block.
+    /// Blocked product: for each block of [`MC`] rows of `A`, for each k-block, for each panel of `B` (each pair of
+    /// panels when `wide`: the AVX-512 kernel), for each `MR` rows: the kernel. `A` is read in place when its rows
+    /// are contiguous (cs = 1), else packed per block.
     ///
     /// # Safety
-    /// AVX2 and FMA present (checked by the caller); `a`, `b` readable over their shapes at their strides, `c`
-    /// writable over `m × n` with row stride `ldc`, and `c` overlapping neither input.
+    /// AVX2 and FMA present (checked by the caller), AVX-512F too when `wide`; `a`, `b` readable over their shapes
+    /// at their strides, `c` writable over `m × n` with row stride `ldc`, and `c` overlapping neither input.
     #[target_feature(enable = "avx2,fma")]
     #[allow(clippy::too_many_arguments)]
     pub(super) unsafe fn matmul(
@@ -497,6 +444,7 @@ mod avx2 {
         ldc: usize,
         accumulate: bool,
         epi: Epilogue,
+        wide: bool,
     ) {
         let panels = n.div_ceil(NR);
         if k == 0 {
@@ -533,28 +481,38 @@ mod avx2 {
                         pack_a_block(mc, kc, ablk, ap);
                         ap
                     };
-                    for jp in 0..panels {
-                        let nr = NR.min(n - jp * NR);
-                        let mut bias16 = [0.0f32; NR];
+                    let mut jp = 0;
+                    while jp < panels {
+                        let pair = wide && jp + 1 < panels;
+                        let nr = if pair { 2 * NR } else { NR }.min(n - jp * NR);
+                        let mut bias32 = [0.0f32; 2 * NR];
                         if let Epilogue::BiasAct(bias, _) = epi {
-                            bias16[..nr].copy_from_slice(&bias[jp * NR..jp * NR + nr]);
+                            bias32[..nr].copy_from_slice(&bias[jp * NR..jp * NR + nr]);
                         }
-                        let tile_epi = match epi {
-                            Epilogue::BiasAct(_, act) if last => TileEpi::BiasAct(&bias16, act),
-                            _ => TileEpi::None,
+                        let act = match epi {
+                            Epilogue::BiasAct(_, act) if last => Some(act),
+                            _ => None,
                         };
+                        let bias16: &[f32; NR] = bias32[..NR].try_into().expect("NR floats");
+                        let tile_epi = act.map_or(TileEpi::None, |act| TileEpi::BiasAct(bias16, act));
                         let bpanel = bpk.add(jp * kc * NR);
                         for ip in 0..mc.div_ceil(MR) {
                             let mr = MR.min(mc - ip * MR);
                             let cp = c.add((ic + ip * MR) * ldc + jp * NR);
-                            if direct {
-                                let arow = ablk.rows_from(ip * MR).ptr;
-                                kernel(kc, arow, a.rs, 1, bpanel, cp, ldc, mr, nr, acc, tile_epi);
+                            let (arow, ars, acs) = if direct {
+                                (ablk.rows_from(ip * MR).ptr, a.rs, 1)
                             } else {
-                                let apanel = ap.add(ip * kc * MR);
-                                kernel(kc, apanel, 1, MR as isize, bpanel, cp, ldc, mr, nr, acc, tile_epi);
+                                (ap.add(ip * kc * MR) as *const f32, 1, MR as isize)
+                            };
+                            if pair {
+                                let b1 = bpanel.add(kc * NR);
+                                let e = act.map(|act| (&bias32, act));
+                                avx512::kernel(kc, arow, ars, acs, bpanel, b1, cp, ldc, mr, nr, acc, e);
+                            } else {
+                                kernel(kc, arow, ars, acs, bpanel, cp, ldc, mr, nr, acc, tile_epi);
                             }
                         }
+                        jp += if pair { 2 } else { 1 };
                     }
                     pc += kc;
                 }
@@ -563,6 +521,14 @@ mod avx2 {
         });
     }
 }
+
+#[path = "gemm_pack.rs"]
+mod pack;
+use pack::{pack_a_block, pack_b_block};
+
+#[cfg(target_arch = "x86_64")]
+#[path = "gemm_avx512.rs"]
+mod avx512;
 
 #[cfg(test)]
 #[path = "gemm_tests.rs"]

@@ -1,5 +1,11 @@
 //! The GEMM kernel against a naive f64 product, on shapes that exercise every edge path.
 use super::*;
+use std::cell::Cell;
+
+thread_local! {
+    /// Makes [`wide_kernel`] answer `false` on this thread: the AVX2 kernel alone, to compare against.
+    pub(crate) static FORCE_AVX2: Cell<bool> = const { Cell::new(false) };
+}
 
 fn naive(m: usize, n: usize, k: usize, a: MatRef, b: MatRef) -> Vec<f64> {
     let mut c = vec![0.0f64; m * n];
@@ -65,5 +71,36 @@ fn epilogue_matches_separate_pass() {
         let fb: Vec<u32> = fused.iter().map(|v| v.to_bits()).collect();
         let pb: Vec<u32> = plain.iter().map(|v| v.to_bits()).collect();
         assert_eq!(fb, pb, "{act:?}");
+    }
+}
+
+#[test]
+fn the_avx512_kernel_gives_the_avx2_kernels_bits() {
+    if !wide_kernel() {
+        eprintln!("skipped: this CPU has no AVX-512F (or NN_GEMM chose another kernel)");
+        return;
+    }
+    // Odd and even panel counts (n = 10, 33, 64, 150), partial row tiles, two k-blocks (k = 600), both layouts.
+    for &(m, n, k) in &[(7, 10, 42), (13, 33, 300), (130, 64, 600), (61, 150, 128), (6, 32, 5)] {
+        let av: Vec<f32> = (0..m * k).map(|i| ((i * 37 % 101) as f32 - 50.0) / 30.0).collect();
+        let bv: Vec<f32> = (0..k * n).map(|i| ((i * 53 % 97) as f32 - 48.0) / 48.0).collect();
+        let bias: Vec<f32> = (0..n).map(|j| (j as f32 - 18.0) / 9.0).collect();
+        for at in [false, true] {
+            let a = if at { MatRef { ptr: av.as_ptr(), rs: 1, cs: m as isize } } else { MatRef::row_major(&av, k) };
+            let b = MatRef::row_major(&bv, n);
+            for epi in [Epilogue::None, Epilogue::BiasAct(&bias, Activation::Elu)] {
+                for accumulate in [false, true] {
+                    let product = |avx2_only: bool| {
+                        FORCE_AVX2.with(|f| f.set(avx2_only));
+                        let mut c: Vec<f32> = (0..m * n).map(|i| ((i * 11 % 13) as f32 - 6.0) / 6.0).collect();
+                        // SAFETY: a, b and c allocated with the shapes and strides passed; c overlaps no input.
+                        unsafe { matmul(m, n, k, a, b, c.as_mut_ptr(), n, accumulate, epi) };
+                        FORCE_AVX2.with(|f| f.set(false));
+                        c.iter().map(|v| v.to_bits()).collect::<Vec<u32>>()
+                    };
+                    assert_eq!(product(false), product(true), "{m}x{n}x{k} at={at} accumulate={accumulate}");
+                }
+            }
+        }
     }
 }

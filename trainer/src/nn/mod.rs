@@ -253,9 +253,6 @@ fn param_slice<'a>(s: &'a Storage, l: &candle_core::Layout) -> &'a [f32] {
     ops::slice_of(c, l, "parameter").expect("nn: parameters must be contiguous f32")
 }
 
-/// Makes this module's kernels, candle (matmul and element-wise ops) and gemm all use `n` threads; see the
-/// module docs. Call once, first thing in `main`, before any candle op or rayon use and before spawning threads.
-/// Fails if the rayon global pool already exists with a different size. Also calls [`keep_freed_memory`].
 /// candle's layer trait, so an `Mlp` composes with candle-nn (`candle_nn::seq().add(mlp)…`).
 impl candle_core::Module for Mlp {
     fn forward(&self, xs: &Tensor) -> candle_core::Result<Tensor> {
@@ -263,6 +260,22 @@ impl candle_core::Module for Mlp {
     }
 }
 
+/// The matrix-product kernel this process uses: `"AVX-512"` (6×32 tiles), `"AVX2"` (6×16 tiles) or `"gemm crate"`
+/// (CPUs without AVX2/FMA). `NN_GEMM=avx2` or `NN_GEMM=crate` in the environment picks a narrower one, for A/B
+/// timing; the AVX-512 and AVX2 kernels give bit-identical results.
+pub fn gemm_kernel() -> &'static str {
+    if !gemm::own_kernel() {
+        "gemm crate"
+    } else if gemm::wide_kernel() {
+        "AVX-512"
+    } else {
+        "AVX2"
+    }
+}
+
+/// Makes this module's kernels, candle (matmul and element-wise ops) and gemm all use `n` threads; see the
+/// module docs. Call once, first thing in `main`, before any candle op or rayon use and before spawning threads.
+/// Fails if the rayon global pool already exists with a different size. Also calls [`keep_freed_memory`].
 pub fn init_threads(n: usize) -> Result<()> {
     let n = n.max(1);
     // Environment writes are only sound while no other thread reads the environment: hence "first thing".
