@@ -174,7 +174,7 @@ pub fn run(a: &Args) -> Result<()> {
     // What a user waits for: the preset's runs at the measured iteration time (adversary iterations are taken
     // at the policy iteration's cost: both collect the same rollout and update a network of the same size).
     let ad = &cfg.adversary;
-    let pipeline = ad.phase1_policy_iters + ad.cycles * (ad.phase2_adversary_iters + ad.phase3_policy_iters);
+    let pipeline = ad.schedule().total();
     println!("\ntime to the preset's end at these rates (h:mm):\n");
     println!("| threads | plain run ({} its) | C+A pipeline: its C, then C+A ({pipeline} its) |", cfg.run.iterations);
     println!("|---:|---:|---:|");

@@ -213,6 +213,19 @@ pub struct AdversaryConfig {
     pub attack_share: f64,
 }
 
+impl AdversaryConfig {
+    /// The schedule these settings describe: phase 1, then the cycles of phases 2 and 3.
+    pub fn schedule(&self) -> crate::schedule::Schedule {
+        let a = self;
+        crate::schedule::Schedule::cyclic(
+            a.phase1_policy_iters,
+            a.phase2_adversary_iters,
+            a.phase3_policy_iters,
+            a.cycles,
+        )
+    }
+}
+
 impl Default for AdversaryConfig {
     fn default() -> Self {
         AdversaryConfig {

@@ -122,8 +122,7 @@ impl Trainer {
             // No symmetry or decay for the adversary: the paper applies them to the locomotion policy.
             let losses = LossConfig { symmetry_coef: 0.0, decay_coef: 0.0 };
             let agent = Agent::new(ac, ppo, losses, None);
-            let sched =
-                Schedule::cyclic(a.phase1_policy_iters, a.phase2_adversary_iters, a.phase3_policy_iters, a.cycles);
+            let sched = a.schedule();
             let bounds = adversary::bounds(&channels);
             (Some(Adversary { agent, channels, bounds }), sched)
         } else {
