@@ -8,6 +8,8 @@ set -euo pipefail
 need_pkgs=()
 [ -e /usr/include/mujoco/mujoco.h ] && ldconfig -p 2>/dev/null | grep -q 'libmujoco.so.2.2' || need_pkgs+=(libmujoco-dev)
 command -v mujoco-testspeed >/dev/null 2>&1 || need_pkgs+=(libmujoco-samples)
+# python3: scripts/train_seeds.sh and scripts/ship_policy.py read run folders' JSON with it.
+command -v python3 >/dev/null 2>&1 || need_pkgs+=(python3)
 # protoc: the TensorBoard event writer (crate tboard) compiles its protobuf schema at build time.
 command -v protoc >/dev/null 2>&1 || need_pkgs+=(protobuf-compiler)
 # Headless rendering: libEGL (glvnd), Mesa's EGL vendor library and its software (llvmpipe) driver.

@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
 # Trains the shipped seeds of a preset — C 1–5, O 1–3, then C+A 1–5, each C+A forked from the C of its seed — into
-# run folders under RUNS, one after another, each on every core. A run an earlier call left unfinished is resumed
-# from its latest checkpoint and a finished one is skipped, so the call can be repeated until everything is done
-# (a session that ends mid-run loses at most one checkpoint interval). With --ship the finished runs are then
-# copied into assets/policies/{C,O,CA}/seedN (scripts/ship_policy.py: provenance kept, paths cleaned).
+# run folders under RUNS. A run an earlier call left unfinished is resumed from its latest checkpoint and a finished
+# one is skipped, so the call can be repeated until everything is done (a session that ends mid-run loses at most
+# one checkpoint interval). With --ship the finished runs are then copied into assets/policies/{C,O,CA}/seedN
+# (scripts/ship_policy.py: provenance kept, paths cleaned).
+# LANES=N trains N runs side by side (the runs dealt out in turn, each lane on cores/N threads; a C+A waits for the
+# C of its seed in another lane): on a 2-core machine two lanes get more samples through than one run on both cores.
 # Usage: scripts/train_seeds.sh CONFIG RUNS [--ship] [RUN …]   RUN: C1 … C5, O1 … O3, CA1 … CA5 (default: all)
-# Environment: TOPA (the binary; default target/release/topa), THREADS (default 0 = all cores).
+# Environment: TOPA (the binary; default target/release/topa), LANES (default 1), THREADS (per lane; default
+# cores/LANES, 0 = all cores).
 set -euo pipefail
 usage="usage: scripts/train_seeds.sh CONFIG RUNS [--ship] [RUN …]   (e.g. configs/cpu.toml ~/runs C1 C2)"
 [ $# -ge 2 ] || { echo "$usage" >&2; exit 2; }
@@ -17,22 +20,78 @@ if [ "${1:-}" = --ship ]; then ship=1; shift; fi
 here=$(cd "$(dirname "$0")/.." && pwd)
 topa=${TOPA:-$here/target/release/topa}
 [ -x "$topa" ] || { echo "$topa: not built (cargo build --release), or set TOPA" >&2; exit 2; }
-threads=${THREADS:-0}
 all="C1 C2 C3 C4 C5 O1 O2 O3 CA1 CA2 CA3 CA4 CA5"
-wanted=${*:-$all}
+read -r -a wanted <<<"${*:-$all}"
+lanes=${LANES:-1}
+[[ "$lanes" =~ ^[1-9][0-9]*$ ]] || { echo "LANES=$lanes: give a number of lanes ≥ 1" >&2; exit 2; }
+
+# Every name is checked before anything trains, so a typo does not surface hours later.
+for run in "${wanted[@]}"; do
+    group=${run%%[0-9]*} seed=${run#"$group"}
+    case "$group" in C | O | CA) ;; *) echo "$run: not one of $all" >&2; exit 2 ;; esac
+    [[ "$seed" =~ ^[1-9][0-9]*$ ]] || { echo "$run: no seed number (e.g. C1)" >&2; exit 2; }
+done
 mkdir -p "$runs"
 
-for run in $wanted; do
+if [ "$lanes" -gt 1 ]; then
+    cores=$(nproc)
+    export TOPA=$topa LANES=1 THREADS=${THREADS:-$((cores / lanes > 0 ? cores / lanes : 1))}
+    export TRAIN_SEEDS_ALL="${wanted[*]}"   # what the lanes train between them (see the C+A's wait below)
+    flags=()
+    [ "$ship" = 1 ] && flags=(--ship)
+    pids=()
+    for ((l = 0; l < lanes; l++)); do
+        mine=()
+        for ((i = l; i < ${#wanted[@]}; i += lanes)); do mine+=("${wanted[i]}"); done
+        [ ${#mine[@]} -gt 0 ] || continue
+        echo "== lane $((l + 1)): ${mine[*]}" >&2
+        "$0" "$config" "$runs" "${flags[@]}" "${mine[@]}" &
+        pids+=($!)
+    done
+    # The first lane to fail stops the others (a C+A waiting on a C that failed would wait for ever).
+    for _ in "${pids[@]}"; do
+        if ! wait -n; then
+            echo "a lane failed: stopping the others (its run's log under $runs says why)" >&2
+            for p in "${pids[@]}"; do pkill -TERM -P "$p" 2>/dev/null || true; kill "$p" 2>/dev/null || true; done
+            wait || true
+            exit 1
+        fi
+    done
+    exit 0
+fi
+
+# Whether the plain run in folder $1 has reached its length (its policy.json is exported at every checkpoint, so
+# its presence alone says nothing).
+finished() {
+    python3 - "$1/checkpoints" <<'EOF'
+import json, sys
+from pathlib import Path
+d = Path(sys.argv[1])
+try:
+    side = json.loads((d / json.loads((d / "latest.json").read_text())["sidecar"]).read_text())
+except (OSError, ValueError, KeyError):
+    sys.exit(1)
+sys.exit(0 if side["iteration"] >= side["config"]["run"]["iterations"] else 1)
+EOF
+}
+
+threads=${THREADS:-0}
+for run in "${wanted[@]}"; do
     group=${run%%[0-9]*} seed=${run#"$group"}
     case "$group" in
         C) start=(--config "$config" --model closed --seed "$seed") ;;
         O) start=(--config "$config" --model open --seed "$seed") ;;
         CA)
-            [ -f "$runs/C-s$seed/policy.json" ] || { echo "$run needs $runs/C-s$seed first (run C$seed)" >&2; exit 1; }
+            c="$runs/C-s$seed"
+            # In a lane, wait for a C that another lane trains (one later in this lane would never come).
+            if ! finished "$c" && [[ " ${TRAIN_SEEDS_ALL:-} " == *" C$seed "* && " ${wanted[*]} " != *" C$seed "* ]]
+            then
+                echo "== $run: waiting for $c to finish" >&2
+                until finished "$c"; do sleep "${TRAIN_SEEDS_POLL_S:-30}"; done
+            fi
+            finished "$c" || { echo "$run needs a finished $c first (run C$seed)" >&2; exit 1; }
             start=(--config "$config" --adversary --init-from "$runs/C-s$seed" --seed "$seed") ;;
-        *) echo "$run: not one of $all" >&2; exit 2 ;;
     esac
-    [[ "$seed" =~ ^[1-9][0-9]*$ ]] || { echo "$run: no seed number (e.g. C1)" >&2; exit 2; }
     out="$runs/$group-s$seed"
     if [ -f "$out/checkpoints/latest.json" ]; then
         echo "== $run: resuming $out" >&2

@@ -197,12 +197,11 @@ pub fn run(run: &Path, p: Protocol, settings: &EvalSettings, out: &Path) -> Resu
         let policy = crate::train_cmd::export_checkpoint(&sidecar, &dir.join(format!("it{it:05}")))?;
         let mut runner = PolicyRunner::load(&policy, &name)?;
         let prov = &runner.policy.meta.provenance;
+        let (samples, wall_time_s, with_adversary) = (prov.samples, prov.wall_time_s, prov.with_adversary);
         // A C+A run's length is its schedule's (phase 1 and the cycles), not `run.iterations`.
         let planned_run =
-            if prov.with_adversary { prov.config.adversary.schedule().total() } else { prov.config.run.iterations };
+            if with_adversary { prov.config.adversary.schedule().total() } else { prov.config.run.iterations };
         (seed, planned) = (prov.seed, planned_run);
-        let (samples, wall_time_s) = (prov.samples, prov.wall_time_s);
-        let with_adversary = prov.with_adversary;
         let rows = tracking::run(&mut runner, settings, p.seconds, 2.0_f64.min(p.seconds / 2.0), p.starts)?;
         let push_t_fall_s = match p.push_step {
             Some(step) => Some(push::run(&mut runner, settings, 30.0, step, 10.0, [0.0; 3])?.mean_t_fall()),

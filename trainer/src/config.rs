@@ -216,12 +216,11 @@ pub struct AdversaryConfig {
 impl AdversaryConfig {
     /// The schedule these settings describe: phase 1, then the cycles of phases 2 and 3.
     pub fn schedule(&self) -> crate::schedule::Schedule {
-        let a = self;
         crate::schedule::Schedule::cyclic(
-            a.phase1_policy_iters,
-            a.phase2_adversary_iters,
-            a.phase3_policy_iters,
-            a.cycles,
+            self.phase1_policy_iters,
+            self.phase2_adversary_iters,
+            self.phase3_policy_iters,
+            self.cycles,
         )
     }
 }

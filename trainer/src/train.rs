@@ -187,16 +187,18 @@ impl Trainer {
         if let Some(a) = &mut self.adversary {
             a.agent.normalizer.frozen = pos.phase != Phase::Adversary;
         }
-        let (mean_step_reward, perturbation, inference_s) = self.collect(pos.phase)?;
+        let (mean_step_reward, perturbation, inference_s) = crate::nn::on_worker(|| self.collect(pos.phase))?;
         let collect_s = start.elapsed().as_secs_f64();
         let t_update = Instant::now();
         let (mut policy_stats, mut adversary_stats) = (None, None);
         if pos.phase.policy_learns() {
             // The entropy schedule is the policy's; the adversary's bonus stays `adversary.entropy_coef`.
             self.policy.ppo.entropy_coef = self.cfg.ppo.entropy_coef_at(self.iteration);
-            policy_stats = Some(self.policy.update(&self.policy_rollout, &mut self.rng)?);
+            let (policy, rollout, rng) = (&mut self.policy, &self.policy_rollout, &mut self.rng);
+            policy_stats = Some(crate::nn::on_worker(|| policy.update(rollout, rng))?);
         } else if let (Some(a), Some(r)) = (&mut self.adversary, &self.adversary_rollout) {
-            adversary_stats = Some(a.agent.update(r, &mut self.rng)?);
+            let rng = &mut self.rng;
+            adversary_stats = Some(crate::nn::on_worker(|| a.agent.update(r, rng))?);
         }
         let update_s = t_update.elapsed().as_secs_f64();
         let n = (self.env.num_envs() * self.cfg.run.steps_per_env * self.comm.size()) as u64;

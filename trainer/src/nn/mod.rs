@@ -291,6 +291,30 @@ pub fn init_threads(n: usize) -> Result<()> {
     }
 }
 
+/// Runs `f` on a worker of rayon's global pool while the caller waits, and returns its result. Called from a
+/// thread outside the pool (the main thread), each parallel region of `f` then starts on a worker that is already
+/// running, instead of waking one to take the job and then a second to share it: with the hundreds of short
+/// regions of a PPO update that hand-over was most of the 2-thread update's lost time. The arithmetic and its
+/// order are unchanged. Inline when already on a worker or with a one-thread pool.
+pub fn on_worker<R>(f: impl FnOnce() -> R) -> R {
+    /// Moves `f` and its result between the caller and the worker.
+    struct Carried<T>(T);
+    // SAFETY: the caller is blocked inside `rayon::join` until the worker has finished with the value, and the
+    // join's latch orders the worker's accesses after the caller's and before its return: the value (even an
+    // `Rc` or a `!Send` tensor handle inside `f`) is never used by two threads at once.
+    unsafe impl<T> Send for Carried<T> {}
+    impl<T> Carried<T> {
+        fn into_inner(self) -> T {
+            self.0
+        }
+    }
+    if rayon::current_thread_index().is_some() || rayon::current_num_threads() <= 1 {
+        return f();
+    }
+    let job = Carried(f);
+    rayon::join(move || Carried(job.into_inner()()), || ()).0.into_inner()
+}
+
 /// Tells glibc's malloc to serve large blocks from the heap and to keep freed memory instead of returning it to
 /// the kernel. Every minibatch allocates and frees the same few hundred MB of tensors; with glibc's defaults
 /// those blocks are fresh `mmap`s or a re-grown heap each time, and first-touch page faults plus kernel page

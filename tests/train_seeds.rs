@@ -1,0 +1,183 @@
+//! `scripts/train_seeds.sh`, the driver that trains a preset's shipped seeds, run against a stand-in for
+//! `topa train` (a shell script that writes what the driver reads: checkpoints, their sidecars, an exported policy)
+//! so that its scheduling is checked in seconds: lanes side by side, a C+A waiting for the C of its seed in another
+//! lane, a finished run resumed rather than restarted, and each kind of bad input stopping it with one error.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/train_seeds.sh");
+const CONFIG: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/cpu.toml");
+
+/// Stands in for `topa train`: logs "start RUN" / "end RUN" (and for a C+A whether its C had finished) to
+/// $STUB_LOG, sleeps $STUB_S_<group> seconds, fails for a run named in $STUB_FAIL, and writes a finished run's
+/// checkpoint sidecar (iteration = `run.iterations` = 10) and policy.json.
+const STUB: &str = r#"#!/usr/bin/env bash
+set -eu
+out="" resume="" init="" adv=0 threads=""
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --out) out=$2; shift ;;
+        --resume) resume=$2; shift ;;
+        --init-from) init=$2; shift ;;
+        --threads) threads=$2; shift ;;
+        --adversary) adv=1 ;;
+    esac
+    shift
+done
+[ -n "$resume" ] && out=$resume
+name=$(basename "$out")
+echo "start $name threads=$threads resume=$([ -n "$resume" ] && echo 1 || echo 0)" >>"$STUB_LOG"
+if [ "$adv" = 1 ]; then
+    it=$(sed -n 's/.*"iteration": \([0-9]*\).*/\1/p' "$init/checkpoints/latest.json")
+    echo "fork $name from $(basename "$init") at $it" >>"$STUB_LOG"
+fi
+group=${name%%-*}
+sleep "$(eval echo "\${STUB_S_$group:-0.2}")"
+case " ${STUB_FAIL:-} " in *" $name "*) echo "stub: $name diverged" >&2; exit 1 ;; esac
+mkdir -p "$out/checkpoints"
+printf '{"iteration": 10, "config": {"run": {"iterations": 10}}}\n' >"$out/checkpoints/ckpt_0000010.json"
+printf '{\n  "sidecar": "ckpt_0000010.json",\n  "iteration": 10\n}\n' >"$out/checkpoints/latest.json"
+echo '{}' >"$out/policy.json"
+echo "end $name" >>"$STUB_LOG"
+"#;
+
+struct Bed {
+    dir: PathBuf,
+}
+
+impl Bed {
+    fn new(tag: &str) -> Bed {
+        let dir = std::env::temp_dir().join(format!("topa-train-seeds-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let stub = dir.join("topa");
+        std::fs::write(&stub, STUB).unwrap();
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&stub, std::fs::Permissions::from_mode(0o755)).unwrap();
+        Bed { dir }
+    }
+
+    fn runs(&self) -> PathBuf {
+        self.dir.join("runs")
+    }
+
+    fn driver(&self, lanes: usize, runs: &[&str]) -> Command {
+        // A driver that waits for ever (a lane not stopped) fails the test through the timeout's status, 124.
+        let mut c = Command::new("timeout");
+        c.args(["60", "bash", SCRIPT]).arg(CONFIG).arg(self.runs()).args(runs);
+        c.env("TOPA", self.dir.join("topa"))
+            .env("LANES", lanes.to_string())
+            .env("STUB_LOG", self.dir.join("events"))
+            .env("TRAIN_SEEDS_POLL_S", "0.05")
+            .env_remove("THREADS");
+        c
+    }
+
+    fn events(&self) -> Vec<String> {
+        std::fs::read_to_string(self.dir.join("events")).unwrap_or_default().lines().map(str::to_owned).collect()
+    }
+
+    fn at(&self, event: &str) -> usize {
+        let ev = self.events();
+        ev.iter().position(|e| e.starts_with(event)).unwrap_or_else(|| panic!("no `{event}` in {ev:#?}"))
+    }
+}
+
+impl Drop for Bed {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+fn text(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).to_string() + &String::from_utf8_lossy(&o.stdout)
+}
+
+fn finished(runs: &Path, name: &str) -> bool {
+    runs.join(name).join("checkpoints/latest.json").is_file() && runs.join(name).join("policy.json").is_file()
+}
+
+#[test]
+fn two_lanes_train_side_by_side_and_a_c_plus_a_waits_for_its_c_in_the_other_lane() {
+    let bed = Bed::new("lanes");
+    // Dealt out in turn: lane 1 gets O1 and CA1, lane 2 gets C1 and O2; C1 takes longest, so CA1 must wait.
+    let mut c = bed.driver(2, &["O1", "C1", "CA1", "O2"]);
+    c.env("STUB_S_C", "1.0").env("STUB_S_O", "0.1");
+    let o = c.output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    for run in ["O-s1", "C-s1", "CA-s1", "O-s2"] {
+        assert!(finished(&bed.runs(), run), "{run} not trained:\n{}", text(&o));
+    }
+    // Side by side: the second lane's first run starts before the first lane's first run ends.
+    assert!(bed.at("start C-s1") < bed.at("end O-s1"), "{:#?}", bed.events());
+    // The fork comes after its C finished, from the C's last iteration, and said that it waited.
+    assert!(bed.at("end C-s1") < bed.at("start CA-s1"), "{:#?}", bed.events());
+    assert!(bed.events().contains(&"fork CA-s1 from C-s1 at 10".to_owned()));
+    assert!(text(&o).contains("CA1: waiting for"), "{}", text(&o));
+    // Each lane gets its share of the cores (at least one thread).
+    let cores = std::thread::available_parallelism().unwrap().get();
+    let want = format!("threads={}", (cores / 2).max(1));
+    assert!(bed.events().iter().filter(|e| e.starts_with("start")).all(|e| e.contains(&want)), "{:#?}", bed.events());
+}
+
+#[test]
+fn a_repeated_call_resumes_what_has_checkpoints_and_trains_the_rest() {
+    let bed = Bed::new("resume");
+    let o = bed.driver(1, &["C2"]).output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let o = bed.driver(1, &["C2", "O3"]).output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let ev = bed.events();
+    assert_eq!(ev.iter().filter(|e| e.starts_with("start C-s2")).count(), 2, "{ev:#?}");
+    assert!(ev.iter().any(|e| e.starts_with("start C-s2") && e.ends_with("resume=1")), "{ev:#?}");
+    assert!(ev.iter().any(|e| e.starts_with("start O-s3") && e.ends_with("resume=0")), "{ev:#?}");
+}
+
+#[test]
+fn a_c_plus_a_without_a_finished_c_is_refused_outside_lanes() {
+    let bed = Bed::new("noc");
+    let o = bed.driver(1, &["CA4"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("CA4 needs a finished") && text(&o).contains("run C4"), "{}", text(&o));
+    // A C still training (a checkpoint short of its length) is not finished either.
+    let ck = bed.runs().join("C-s4/checkpoints");
+    std::fs::create_dir_all(&ck).unwrap();
+    std::fs::write(ck.join("ckpt_0000005.json"), r#"{"iteration": 5, "config": {"run": {"iterations": 10}}}"#).unwrap();
+    std::fs::write(ck.join("latest.json"), r#"{"sidecar": "ckpt_0000005.json", "iteration": 5}"#).unwrap();
+    let o = bed.driver(1, &["CA4"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(bed.events().is_empty(), "{:#?}", bed.events());
+}
+
+#[test]
+fn a_failing_lane_stops_the_call_and_the_lane_waiting_on_it() {
+    let bed = Bed::new("fail");
+    // Lane 1: C5 (fails); lane 2: CA5, which would otherwise wait for C5 for ever.
+    let mut c = bed.driver(2, &["C5", "CA5"]);
+    c.env("STUB_FAIL", "C-s5");
+    let o = c.output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("a lane failed"), "{}", text(&o));
+    assert!(!bed.events().iter().any(|e| e.starts_with("start CA-s5")), "{:#?}", bed.events());
+}
+
+#[test]
+fn bad_arguments_are_one_error_each_before_anything_trains() {
+    let bed = Bed::new("bad");
+    for (runs, lanes, says) in [
+        (&["C1", "X2"][..], "1", "X2: not one of"),
+        (&["C"][..], "1", "C: no seed number"),
+        (&["C1"][..], "two", "LANES=two"),
+    ] {
+        let mut c = bed.driver(1, runs);
+        c.env("LANES", lanes);
+        let o = c.output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(text(&o).contains(says), "{says}: {}", text(&o));
+    }
+    let o = Command::new("bash").arg(SCRIPT).arg("configs/none.toml").arg(bed.runs()).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).contains("configs/none.toml: no such preset"), "{}", text(&o));
+    assert!(bed.events().is_empty(), "{:#?}", bed.events());
+}
