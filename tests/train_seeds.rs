@@ -103,7 +103,8 @@ fn two_lanes_train_side_by_side_and_a_c_plus_a_waits_for_its_c_in_the_other_lane
     let bed = Bed::new("lanes");
     // Dealt out in turn: lane 1 gets O1 and CA1, lane 2 gets C1 and O2; C1 takes longest, so CA1 must wait.
     let mut c = bed.driver(2, &["O1", "C1", "CA1", "O2"]);
-    c.env("STUB_S_C", "1.0").env("STUB_S_O", "0.1");
+    // Seconds, not milliseconds: a loaded machine may take a while to start the second lane.
+    c.env("STUB_S_C", "2.0").env("STUB_S_O", "1.0");
     let o = c.output().unwrap();
     assert!(o.status.success(), "{}", text(&o));
     for run in ["O-s1", "C-s1", "CA-s1", "O-s2"] {
