@@ -9,7 +9,7 @@ use std::process::{Command, Output};
 const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/train_seeds.sh");
 const CONFIG: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/cpu.toml");
 
-/// Stands in for `topa train`: logs "start RUN" / "end RUN" (and for a C+A whether its C had finished) to
+/// Stands in for `topa train`: logs "start RUN" / "end RUN" (and for a C+A the C and iteration it forks from) to
 /// $STUB_LOG, sleeps $STUB_S_<group> seconds, fails for a run named in $STUB_FAIL, and writes a finished run's
 /// checkpoint sidecar (iteration = `run.iterations` = 10) and policy.json.
 const STUB: &str = r#"#!/usr/bin/env bash

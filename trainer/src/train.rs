@@ -187,13 +187,8 @@ impl Trainer {
         if let Some(a) = &mut self.adversary {
             a.agent.normalizer.frozen = pos.phase != Phase::Adversary;
         }
-        // On a pool worker (see `nn::on_worker`), except with several ranks: MPI is initialised `Funneled`, so its
-        // calls (the update's gradient sums, the normaliser's all-gather) stay on the main thread.
         let solo = self.comm.size() == 1;
-        let on_worker = |f: &mut dyn FnMut()| if solo { crate::nn::on_worker(f) } else { f() };
-        let mut collected = None;
-        on_worker(&mut || collected = Some(self.collect(pos.phase)));
-        let (mean_step_reward, perturbation, inference_s) = collected.expect("the rollout ran")?;
+        let (mean_step_reward, perturbation, inference_s) = on_worker_if(solo, || self.collect(pos.phase))?;
         let collect_s = start.elapsed().as_secs_f64();
         let t_update = Instant::now();
         let (mut policy_stats, mut adversary_stats) = (None, None);
@@ -201,12 +196,11 @@ impl Trainer {
             // The entropy schedule is the policy's; the adversary's bonus stays `adversary.entropy_coef`.
             self.policy.ppo.entropy_coef = self.cfg.ppo.entropy_coef_at(self.iteration);
             let (policy, rollout, rng) = (&mut self.policy, &self.policy_rollout, &mut self.rng);
-            on_worker(&mut || policy_stats = Some(policy.update(rollout, rng)));
+            policy_stats = Some(on_worker_if(solo, || policy.update(rollout, rng))?);
         } else if let (Some(a), Some(r)) = (&mut self.adversary, &self.adversary_rollout) {
             let rng = &mut self.rng;
-            on_worker(&mut || adversary_stats = Some(a.agent.update(r, rng)));
+            adversary_stats = Some(on_worker_if(solo, || a.agent.update(r, rng))?);
         }
-        let (policy_stats, adversary_stats) = (policy_stats.transpose()?, adversary_stats.transpose()?);
         let update_s = t_update.elapsed().as_secs_f64();
         let n = (self.env.num_envs() * self.cfg.run.steps_per_env * self.comm.size()) as u64;
         self.samples += n;
@@ -413,5 +407,16 @@ impl Trainer {
             r.std = a.agent.ac.std()?;
         }
         Ok(())
+    }
+}
+
+/// `f` on a pool worker (see [`crate::nn::on_worker`]) for a single process; on the calling thread with several
+/// ranks, because MPI is initialised `Funneled`: its calls (the update's gradient sums, the normaliser's all-gather)
+/// must come from the main thread.
+fn on_worker_if<R>(solo: bool, f: impl FnOnce() -> R) -> R {
+    if solo {
+        crate::nn::on_worker(f)
+    } else {
+        f()
     }
 }
