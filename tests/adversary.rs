@@ -61,6 +61,34 @@ fn phases_alternate_and_frozen_networks_do_not_move() {
     assert_eq!(seen, vec![1, 1, 2, 2, 3, 3, 2, 2, 3, 3]);
 }
 
+/// The policy's weights after each iteration of a 1 + 1 + 2 schedule.
+fn policy_after_each_iteration(cfg: &TrainConfig) -> Vec<Vec<Vec<f32>>> {
+    let mut t = trainer(cfg);
+    let mut after = vec![];
+    while t.iterate().unwrap().is_some() {
+        after.push(flat(&t.policy.ac.vars()));
+    }
+    after
+}
+
+#[test]
+fn phase_three_trains_the_policy_with_its_own_entropy_bonus() {
+    // ppo's bonus decays to none after iteration 0; phase 3 (iterations 2 and 3) takes adversary.policy_entropy_coef.
+    let with = |phase3: f64| {
+        let mut c = config(6, 1, 1, 2, 1);
+        (c.ppo.entropy_coef, c.ppo.entropy_coef_end, c.ppo.entropy_decay_iterations) = (0.05, 0.0, 1);
+        c.adversary.policy_entropy_coef = phase3;
+        c
+    };
+    let decayed = policy_after_each_iteration(&with(0.05));
+    let mut constant = with(0.05);
+    constant.ppo.entropy_decay_iterations = 0;
+    assert_eq!(policy_after_each_iteration(&constant), decayed, "phase 1 at 0.05 and phase 3 at 0.05 either way");
+    let none = policy_after_each_iteration(&with(0.0));
+    assert_eq!(none[..2], decayed[..2], "phases 1 and 2 do not read the phase-3 weight");
+    assert_ne!(none[2], decayed[2], "phase 3 updates with adversary.policy_entropy_coef, not ppo's schedule");
+}
+
 #[test]
 fn the_adversary_learns_to_topple_a_fixed_policy() {
     // Phase 1 learns to balance; phase 2 trains the adversary against the frozen balancer.

@@ -243,6 +243,9 @@ fn unknown_or_invalid_config_keys_are_clear_errors() {
     assert!(err.contains("ppo.entropy_coef_end must be ≥ 0"), "{err}");
     let err = TrainConfig::load(&write("adv.toml", "[adversary]\nattack_share = 1.5\n")).unwrap_err().to_string();
     assert!(err.contains("adversary.attack_share"), "{err}");
+    let phase3 = write("adv3.toml", "[adversary]\npolicy_entropy_coef = -0.01\n");
+    let err = TrainConfig::load(&phase3).unwrap_err().to_string();
+    assert!(err.contains("adversary.policy_entropy_coef must be ≥ 0"), "{err}");
     let (ok, ok_env) =
         load_config(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/paper.toml"))).unwrap();
     assert_eq!(ok.run.num_envs, 4096);

@@ -211,6 +211,10 @@ pub struct AdversaryConfig {
     /// Share of the envs the frozen adversary perturbs in phase 3 (the first ⌈share·N⌉); the rest run
     /// unperturbed, so the policy keeps seeing the undisturbed robot it will meet in evaluation.
     pub attack_share: f64,
+    /// The locomotion policy's entropy bonus in phase 3, in place of `ppo`'s schedule (ours; rsl_rl's 0.01 by
+    /// default): a schedule that decays to none by the end of phase 1 would leave the policy's exploration
+    /// shrinking through every cycle against the adversary.
+    pub policy_entropy_coef: f64,
 }
 
 impl AdversaryConfig {
@@ -238,6 +242,7 @@ impl Default for AdversaryConfig {
             entropy_coef: 0.0,
             sample_when_frozen: true,
             attack_share: 1.0,
+            policy_entropy_coef: 0.01,
         }
     }
 }
@@ -316,6 +321,7 @@ impl TrainConfig {
             ("ppo.entropy_coef", p.entropy_coef),
             ("ppo.entropy_coef_end", p.entropy_coef_end),
             ("adversary.entropy_coef", a.entropy_coef),
+            ("adversary.policy_entropy_coef", a.policy_entropy_coef),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(format!("{k} must be ≥ 0, got {v}"));

@@ -193,8 +193,12 @@ impl Trainer {
         let t_update = Instant::now();
         let (mut policy_stats, mut adversary_stats) = (None, None);
         if pos.phase.policy_learns() {
-            // The entropy schedule is the policy's; the adversary's bonus stays `adversary.entropy_coef`.
-            self.policy.ppo.entropy_coef = self.cfg.ppo.entropy_coef_at(self.iteration);
+            // The entropy schedule is the policy's (phase 3 has its own weight); the adversary's bonus stays
+            // `adversary.entropy_coef`.
+            self.policy.ppo.entropy_coef = match pos.phase {
+                Phase::PolicyUnderAttack => self.cfg.adversary.policy_entropy_coef,
+                _ => self.cfg.ppo.entropy_coef_at(self.iteration),
+            };
             let (policy, rollout, rng) = (&mut self.policy, &self.policy_rollout, &mut self.rng);
             policy_stats = Some(on_worker_if(solo, || policy.update(rollout, rng))?);
         } else if let (Some(a), Some(r)) = (&mut self.adversary, &self.adversary_rollout) {
