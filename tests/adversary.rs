@@ -61,7 +61,7 @@ fn phases_alternate_and_frozen_networks_do_not_move() {
     assert_eq!(seen, vec![1, 1, 2, 2, 3, 3, 2, 2, 3, 3]);
 }
 
-/// The policy's weights after each iteration of a 1 + 1 + 2 schedule.
+/// The policy's weights after each iteration of the run `cfg` describes, its schedule to the end.
 fn policy_after_each_iteration(cfg: &TrainConfig) -> Vec<Vec<Vec<f32>>> {
     let mut t = trainer(cfg);
     let mut after = vec![];
