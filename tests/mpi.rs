@@ -122,7 +122,7 @@ fn the_topa_task_learns_to_stand_on_two_ranks_and_on_one() {
         format!(
             "base = \"{base}\"\n[run]\nnum_envs = 64\niterations = 40\ncheckpoint_every = 40\n\
              [network]\ninit_noise_std = 0.5\n[ppo]\nlearning_rate = 1e-3\n\
-             [env.commands]\nstanding_share = 1.0\n[env.push]\nenabled = false\n"
+             [env.commands]\nstanding_share = 1.0\nturn_share = 0.0\n[env.push]\nenabled = false\n"
         ),
     )
     .unwrap();
