@@ -86,6 +86,7 @@ pub fn run_ablate(groups: Groups, extent: Extent, attached: Attached, c: Common)
     attach(&mut a, attached)?;
     let run = ablate::run(&policies, &c.settings()?, &extent)?;
     a.results = run.results;
+    ablate::check_attached_weights(&a)?;
     report_ablation(&a, &c)
 }
 
@@ -93,6 +94,7 @@ pub fn run_ablate(groups: Groups, extent: Extent, attached: Attached, c: Common)
 pub fn merge_ablations(files: &[PathBuf], attached: Attached, c: Common) -> Result<()> {
     let mut a = ablate::merge(files)?;
     attach(&mut a, attached)?;
+    ablate::check_attached_weights(&a)?;
     report_ablation(&a, &c)
 }
 

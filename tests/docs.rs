@@ -186,4 +186,10 @@ fn the_committed_report_is_what_its_json_renders_to() {
     shipped.sort();
     reported.sort();
     assert_eq!(reported, shipped, "the report covers exactly the shipped seeds");
+    // Results that record the weights they measured measured the shipped files' (a seed retrained in place
+    // without a new ablation fails here).
+    for r in a.results.iter().filter(|r| r.weights_crc32.is_some()) {
+        let now = trainer::policy_file::Policy::load(&root().join(&r.policy)).unwrap().meta.weights_crc32;
+        assert_eq!(r.weights_crc32, Some(now), "{} was retrained after its ablation", r.policy.display());
+    }
 }

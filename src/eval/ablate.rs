@@ -121,6 +121,7 @@ pub fn run(policies: &[(Group, PathBuf)], settings: &EvalSettings, extent: &Exte
         results.push(PolicyResults {
             name: *name,
             policy: path.clone(),
+            weights_crc32: Some(runner.policy.meta.weights_crc32),
             trained_on: runner.trained_on().into(),
             tracking,
             push,
@@ -165,6 +166,7 @@ pub fn merge(files: &[PathBuf]) -> Result<Ablation> {
             first_file.display()
         );
         for r in &a.results {
+            check_still_current(f, r)?;
             ensure!(
                 !results.iter().any(|q| q.policy == r.policy),
                 "--merge: policy {} is in more than one file ({} among them); it would count as two seeds",
@@ -178,6 +180,44 @@ pub fn merge(files: &[PathBuf]) -> Result<Ablation> {
                                      // Attached reports stay with the report they were attached to (the first file's); --field / --terrain replace them.
     let (field, terrain) = (first.field.clone(), first.terrain.clone());
     Ok(Ablation { settings: first.settings.clone(), extent: first.extent.clone(), results, field, terrain })
+}
+
+/// Refuses a result whose policy file, still at its path, now holds other weights than the ones measured (a seed
+/// retrained in place after its ablation ran); a file not on this machine, or a result written before weights
+/// were recorded, is let through.
+fn check_still_current(file: &Path, r: &PolicyResults) -> Result<()> {
+    let Some(measured) = r.weights_crc32 else { return Ok(()) };
+    if !r.policy.exists() {
+        return Ok(());
+    }
+    let now = trainer::policy_file::Policy::load(&r.policy)?.meta.weights_crc32;
+    ensure!(
+        now == measured,
+        "--merge: {} measured {} with weights of CRC-32 {measured:08x}, but that policy now holds {now:08x} \
+         (retrained or replaced): run `topa ablate` on it again",
+        file.display(),
+        r.policy.display()
+    );
+    Ok(())
+}
+
+/// Refuses an attached field or terrain report that measured one of this ablation's policy files with other
+/// weights than the ablation did: the report would pair numbers of two different policies under one name.
+pub fn check_attached_weights(a: &Ablation) -> Result<()> {
+    let ours = |p: &Path| a.results.iter().find(|r| r.policy == p).and_then(|r| r.weights_crc32);
+    let field = a.field.iter().flat_map(|f| &f.results).map(|r| ("field", &r.policy, r.weights_crc32));
+    let terrain = a.terrain.iter().flat_map(|t| &t.entries).map(|e| ("terrain", &e.policy, e.weights_crc32));
+    for (test, policy, theirs) in field.chain(terrain) {
+        if let (Some(x), Some(y)) = (ours(policy), theirs) {
+            ensure!(
+                x == y,
+                "--{test}: the {test} test measured {} with weights of CRC-32 {y:08x}, this ablation with {x:08x}; \
+                 run `topa {test}` on the current policy again",
+                policy.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 /// The Markdown report: the groups' headline numbers, tracking, gait, and every policy's own row.
@@ -362,6 +402,7 @@ mod tests {
         PolicyResults {
             name: Group::from_key(name).unwrap(),
             policy: policy.into(),
+            weights_crc32: None,
             trained_on: "closed".into(),
             tracking: vec![row],
             push: grid.clone(),
@@ -438,6 +479,60 @@ mod tests {
         // One file renders its report again (to attach a field test); none is an error.
         assert_eq!(merge(std::slice::from_ref(&c)).unwrap().results.len(), 2);
         assert!(err(&[]).contains("one or more"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn results_stay_tied_to_the_weights_they_measured() {
+        use super::super::endurance::Operator;
+        use super::super::field::{Field, FieldExtent, FieldPolicy};
+        let dir = std::env::temp_dir().join(format!("topa-weights-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let shipped = "assets/policies/C/seed1.json";
+        let crc = trainer::policy_file::Policy::load(Path::new(shipped)).unwrap().meta.weights_crc32;
+        let ablation = |measured: Option<u32>| {
+            let r = PolicyResults { weights_crc32: measured, ..one("C", shipped, 8.0) };
+            let settings = EvalSettings { threads: 1, ..Default::default() };
+            Ablation { settings, extent: Extent::full(), results: vec![r], field: None, terrain: None }
+        };
+        // Merging: the policy file at the recorded path must still hold the weights measured.
+        for (file, measured) in [("same.json", Some(crc)), ("unrecorded.json", None), ("stale.json", Some(crc ^ 1))] {
+            report::write_json(&dir, file, &ablation(measured)).unwrap();
+        }
+        assert_eq!(merge(&[dir.join("same.json")]).unwrap().results[0].weights_crc32, Some(crc));
+        assert!(merge(&[dir.join("unrecorded.json")]).is_ok());
+        let stale = format!("{:#}", merge(&[dir.join("stale.json")]).unwrap_err());
+        assert!(stale.contains("now holds") && stale.contains(shipped), "{stale}");
+        // A file that is not on this machine cannot be checked: let through.
+        let mut elsewhere = ablation(Some(7));
+        elsewhere.results[0].policy = "elsewhere/c9.json".into();
+        report::write_json(&dir, "elsewhere.json", &elsewhere).unwrap();
+        assert!(merge(&[dir.join("elsewhere.json")]).is_ok());
+
+        // Attaching: a field test of the same path must have measured the same weights.
+        let field = |measured: Option<u32>| Field {
+            extent: FieldExtent {
+                course: "c.toml".into(),
+                speeds: vec![0.5],
+                endurance_minutes: 1.0,
+                modes: vec![],
+                operator: Operator::default(),
+            },
+            settings: EvalSettings::default(),
+            results: vec![FieldPolicy {
+                name: Group::C,
+                policy: shipped.into(),
+                weights_crc32: measured,
+                modes: vec![],
+            }],
+        };
+        for (measured, ok) in [(Some(crc), true), (None, true), (Some(crc ^ 1), false)] {
+            let a = Ablation { field: Some(field(measured)), ..ablation(Some(crc)) };
+            assert_eq!(check_attached_weights(&a).is_ok(), ok, "{measured:?}");
+        }
+        let a = Ablation { field: Some(field(Some(crc ^ 1))), ..ablation(Some(crc)) };
+        let e = format!("{:#}", check_attached_weights(&a).unwrap_err());
+        assert!(e.contains("--field") && e.contains("topa field"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

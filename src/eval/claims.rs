@@ -309,6 +309,7 @@ mod tests {
         PolicyResults {
             name: Group::from_key(name).unwrap(),
             policy: format!("{name}{id}.json").into(),
+            weights_crc32: None,
             trained_on: "topa_closed".into(),
             tracking: vec![row("walk_forward", false), row("rotate_cw", false)],
             push: grid.clone(),

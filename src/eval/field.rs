@@ -42,6 +42,9 @@ pub struct FieldMode {
 pub struct FieldPolicy {
     pub name: Group,
     pub policy: PathBuf,
+    /// CRC-32 of the weights measured (as in `PolicyResults`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weights_crc32: Option<u32>,
     pub modes: Vec<FieldMode>,
 }
 
@@ -75,7 +78,8 @@ pub fn run(policies: &[(Group, PathBuf)], base: &EvalSettings, extent: &FieldExt
             let endurance = endurance::run(&mut runner, &s, extent.endurance_minutes, 1, &extent.operator)?.remove(0);
             modes.push(FieldMode { sim2sim: mode.clone(), course, endurance });
         }
-        results.push(FieldPolicy { name: *group, policy: path.clone(), modes });
+        let weights_crc32 = Some(runner.policy.meta.weights_crc32);
+        results.push(FieldPolicy { name: *group, policy: path.clone(), weights_crc32, modes });
     }
     Ok(Field { extent: extent.clone(), settings: base.clone(), results })
 }
@@ -110,6 +114,13 @@ pub fn merge(files: &[PathBuf]) -> Result<Field> {
                 None => all.results.push(r),
                 Some(q) => {
                     ensure!(q.name == r.name, "--merge: {} is in two groups", r.policy.display());
+                    ensure!(
+                        q.weights_crc32.is_none() || r.weights_crc32.is_none() || q.weights_crc32 == r.weights_crc32,
+                        "--merge: {} was measured with other weights in {} than in an earlier file (retrained in \
+                         between?); run `topa field` on the current policy again",
+                        r.policy.display(),
+                        f.display()
+                    );
                     for m in r.modes {
                         ensure!(
                             !q.modes.iter().any(|x| x.sim2sim == m.sim2sim),
@@ -377,6 +388,7 @@ mod tests {
         FieldPolicy {
             name,
             policy: file.into(),
+            weights_crc32: None,
             modes: vec![FieldMode {
                 sim2sim: Sim2SimMode::Ideal,
                 course: CourseResult { course: "t".into(), length_m: 100.0, runs },
@@ -481,6 +493,12 @@ mod tests {
         let c1 = m.results.iter().find(|p| p.name == Group::C).unwrap();
         assert_eq!(c1.modes.iter().map(|x| x.sim2sim.clone()).collect::<Vec<_>>(), m.extent.modes);
         assert_eq!(c1.modes[1].endurance.interventions, 1);
+        // Its realistic run measured other weights than its ideal one: refused.
+        realistic.results[0].weights_crc32 = Some(2);
+        let mut ideal = field(vec![policy(Group::C, "c1", vec![run(0.7, true, 150.0, 0, 0.0)], 0)]);
+        ideal.results[0].weights_crc32 = Some(1);
+        let (r, i) = (write("r2.json", &realistic), write("i2.json", &ideal));
+        assert!(format!("{:#}", merge(&[i, r]).unwrap_err()).contains("c1 was measured with other weights"));
         let mut other = field(vec![policy(Group::CA, "ca1", vec![], 0)]);
         other.extent.endurance_minutes = 10.0;
         let o = write("o.json", &other);

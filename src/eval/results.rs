@@ -56,6 +56,10 @@ pub struct PolicyResults {
     /// The group it is a seed of.
     pub name: Group,
     pub policy: PathBuf,
+    /// CRC-32 of the weights measured (the sidecar's `weights_crc32`): ties the numbers to one file's contents
+    /// (absent in reports written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weights_crc32: Option<u32>,
     pub trained_on: String,
     pub tracking: Vec<TrackingRow>,
     /// The paper's push test: standing (command 0).

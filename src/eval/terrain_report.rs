@@ -21,6 +21,9 @@ use super::terrain::{self, TerrainResult};
 pub struct TerrainEntry {
     pub group: Group,
     pub policy: PathBuf,
+    /// CRC-32 of the weights measured (as in `PolicyResults`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weights_crc32: Option<u32>,
     /// Its training config had `[env.terrain]` on.
     pub trained_on_terrain: bool,
     /// Its observation has `[env.height_scan]` (absent in reports written before scans were told apart: blind).
@@ -50,7 +53,9 @@ pub fn run(policies: &[(Group, PathBuf)], settings: &EvalSettings, p: &terrain::
         let sense = if height_scan { ", with a height scan" } else { "" };
         eprintln!("{}: {} (trained on {}{sense})", group.label(), path.display(), ground(trained_on_terrain));
         let result = terrain::run(&mut r, settings, p)?;
-        entries.push(TerrainEntry { group: *group, policy: path.clone(), trained_on_terrain, height_scan, result });
+        let weights_crc32 = Some(r.policy.meta.weights_crc32);
+        let policy = path.clone();
+        entries.push(TerrainEntry { group: *group, policy, weights_crc32, trained_on_terrain, height_scan, result });
     }
     Ok(TerrainReport { levels, runs, window_s, entries })
 }
