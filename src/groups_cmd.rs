@@ -84,9 +84,14 @@ pub fn run_ablate(groups: Groups, extent: Extent, attached: Attached, c: Common)
         terrain: None,
     };
     attach(&mut a, attached)?;
+    // And their weights against the policies' files now, not after the evaluation (whose results would be lost).
+    let weights = policies
+        .iter()
+        .map(|(_, p)| Ok((p.clone(), Some(trainer::policy_file::Policy::load(p)?.meta.weights_crc32))))
+        .collect::<Result<Vec<_>>>()?;
+    ablate::check_attached_weights(&a, &weights)?;
     let run = ablate::run(&policies, &c.settings()?, &extent)?;
     a.results = run.results;
-    ablate::check_attached_weights(&a)?;
     report_ablation(&a, &c)
 }
 
@@ -94,7 +99,7 @@ pub fn run_ablate(groups: Groups, extent: Extent, attached: Attached, c: Common)
 pub fn merge_ablations(files: &[PathBuf], attached: Attached, c: Common) -> Result<()> {
     let mut a = ablate::merge(files)?;
     attach(&mut a, attached)?;
-    ablate::check_attached_weights(&a)?;
+    ablate::check_attached_weights(&a, &ablate::measured_weights(&a))?;
     report_ablation(&a, &c)
 }
 

@@ -201,10 +201,16 @@ fn check_still_current(file: &Path, r: &PolicyResults) -> Result<()> {
     Ok(())
 }
 
-/// Refuses an attached field or terrain report that measured one of this ablation's policy files with other
-/// weights than the ablation did: the report would pair numbers of two different policies under one name.
-pub fn check_attached_weights(a: &Ablation) -> Result<()> {
-    let ours = |p: &Path| a.results.iter().find(|r| r.policy == p).and_then(|r| r.weights_crc32);
+/// Each result's policy file with the CRC-32 of the weights it measured (where recorded).
+pub fn measured_weights(a: &Ablation) -> Vec<(PathBuf, Option<u32>)> {
+    a.results.iter().map(|r| (r.policy.clone(), r.weights_crc32)).collect()
+}
+
+/// Refuses an attached field or terrain report that measured one of the ablation's policy files with other
+/// weights than the ablation (`weights`: its files and their CRC-32s): the report would pair numbers of two
+/// different policies under one name.
+pub fn check_attached_weights(a: &Ablation, weights: &[(PathBuf, Option<u32>)]) -> Result<()> {
+    let ours = |p: &Path| weights.iter().find(|(q, _)| q == p).and_then(|&(_, crc)| crc);
     let field = a.field.iter().flat_map(|f| &f.results).map(|r| ("field", &r.policy, r.weights_crc32));
     let terrain = a.terrain.iter().flat_map(|t| &t.entries).map(|e| ("terrain", &e.policy, e.weights_crc32));
     for (test, policy, theirs) in field.chain(terrain) {
@@ -528,10 +534,10 @@ mod tests {
         };
         for (measured, ok) in [(Some(crc), true), (None, true), (Some(crc ^ 1), false)] {
             let a = Ablation { field: Some(field(measured)), ..ablation(Some(crc)) };
-            assert_eq!(check_attached_weights(&a).is_ok(), ok, "{measured:?}");
+            assert_eq!(check_attached_weights(&a, &measured_weights(&a)).is_ok(), ok, "{measured:?}");
         }
         let a = Ablation { field: Some(field(Some(crc ^ 1))), ..ablation(Some(crc)) };
-        let e = format!("{:#}", check_attached_weights(&a).unwrap_err());
+        let e = format!("{:#}", check_attached_weights(&a, &measured_weights(&a)).unwrap_err());
         assert!(e.contains("--field") && e.contains("topa field"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
