@@ -121,6 +121,8 @@ pub fn merge(files: &[PathBuf]) -> Result<Field> {
                         r.policy.display(),
                         f.display()
                     );
+                    // A file written before reports recorded weights says nothing: keep the one that does.
+                    q.weights_crc32 = q.weights_crc32.or(r.weights_crc32);
                     for m in r.modes {
                         ensure!(
                             !q.modes.iter().any(|x| x.sim2sim == m.sim2sim),
@@ -498,7 +500,14 @@ mod tests {
         let mut ideal = field(vec![policy(Group::C, "c1", vec![run(0.7, true, 150.0, 0, 0.0)], 0)]);
         ideal.results[0].weights_crc32 = Some(1);
         let (r, i) = (write("r2.json", &realistic), write("i2.json", &ideal));
-        assert!(format!("{:#}", merge(&[i, r]).unwrap_err()).contains("c1 was measured with other weights"));
+        assert!(format!("{:#}", merge(&[i.clone(), r]).unwrap_err()).contains("c1 was measured with other weights"));
+        // An earlier file that recorded no weights takes the later file's, whichever mode came first.
+        realistic.results[0].weights_crc32 = None;
+        let r = write("r3.json", &realistic);
+        for files in [[r.clone(), i.clone()], [i, r]] {
+            let m = merge(&files).unwrap();
+            assert_eq!(m.results.iter().find(|p| p.name == Group::C).unwrap().weights_crc32, Some(1));
+        }
         let mut other = field(vec![policy(Group::CA, "ca1", vec![], 0)]);
         other.extent.endurance_minutes = 10.0;
         let o = write("o.json", &other);
