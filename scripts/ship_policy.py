@@ -14,6 +14,20 @@ import zlib
 from pathlib import Path
 
 
+REPO = Path(__file__).resolve().parent.parent
+
+
+def portable(t):
+    """A file of the repository (a preset given by its absolute path) by its path in the repository; any other
+    absolute path (e.g. --init-from a run kept elsewhere) as runs/<its name>."""
+    if not Path(t).is_absolute():
+        return t
+    try:
+        return str(Path(t).resolve().relative_to(REPO))
+    except ValueError:
+        return f"runs/{Path(t).name}"
+
+
 def strings(v):
     """Every string in the sidecar, however deeply nested."""
     if isinstance(v, str):
@@ -35,17 +49,14 @@ meta = json.loads((run / "policy.json").read_text())
 weights = (run / meta["weights"]).read_bytes()
 if zlib.crc32(weights) != meta["weights_crc32"]:
     sys.exit(f"{run}/{meta['weights']} does not match its sidecar's CRC: re-export the run")
-root = Path(__file__).resolve().parent.parent / "assets" / "policies"
+root = REPO / "assets" / "policies"
 dest = (root / name).parent
 stem = Path(name).name
 # Where the runs lived on the training machine is nobody's business: runs/<folder> in the record.
 runs_dir = str(run.resolve().parent)
 p = meta["provenance"]
 p["command"] = p["command"].replace(runs_dir + "/", "runs/")
-# Any other absolute run folder in the command (e.g. --init-from a run kept elsewhere) becomes runs/<its name> too.
-p["command"] = " ".join(
-    f"runs/{Path(t).name}" if Path(t).is_absolute() else t for t in p["command"].split(" ")
-)
+p["command"] = " ".join(portable(t) for t in p["command"].split(" "))
 
 # A shipped sidecar names files relative to the repository; any absolute path left is this machine's.
 if any(Path(t).is_absolute() for s in strings(meta) for t in s.replace("=", " ").split()):

@@ -1,16 +1,23 @@
 #!/usr/bin/env bash
 # Trains the shipped seeds of a preset — C 1–5, O 1–3, then C+A 1–5, each C+A forked from the C of its seed — into
-# run folders under RUNS. A run an earlier call left unfinished is resumed from its latest checkpoint and a finished
-# one is skipped, so the call can be repeated until everything is done (a session that ends mid-run loses at most
-# one checkpoint interval). With --ship the finished runs are then copied into assets/policies/{C,O,CA}/seedN
-# (scripts/ship_policy.py: provenance kept, paths cleaned).
-# LANES=N trains N runs side by side (the runs dealt out in turn, each lane on cores/N threads; a C+A waits for the
-# C of its seed in another lane): on a 2-core machine two lanes get more samples through than one run on both cores.
-# Usage: scripts/train_seeds.sh CONFIG RUNS [--ship] [RUN …]   RUN: C1 … C5, O1 … O3, CA1 … CA5 (default: all)
+# run folders under RUNS, and on request the terrain runs that fork from them. A run an earlier call left unfinished
+# is resumed from its latest checkpoint and a finished one is skipped, so the call can be repeated until everything
+# is done (a session that ends mid-run loses at most one checkpoint interval). With --ship the finished runs are then
+# copied into assets/policies/GROUP/seedN (scripts/ship_policy.py: provenance kept, paths cleaned).
+# LANES=N trains N runs side by side (the runs dealt out in turn, each lane on cores/N threads; a run that forks from
+# another waits for it when another lane trains it): on a 2-core machine two lanes get more samples through than one
+# run on both cores.
+# Usage: scripts/train_seeds.sh CONFIG RUNS [--ship] [RUN …]   RUN (default: the flat ones):
+#   C1 … C5, O1 … O3, CA1 … CA5          the flat groups on CONFIG (CA<N> forks from C<N>)
+#   C-terrainN, O-terrainN                C<N> / O<N> continued on the terrain preset (TERRAIN_CONFIG)
+#   CA-terrainN                           C-terrain<N> forked into the terrain preset's adversary cycles
+#   C-terrain-scanN, C-terrain-blindN     C-terrain<N> forked with the height scan (SCAN_CONFIG), and the blind
+#                                         control of as many iterations (shipped as C-terrain-scan/blind/seedN)
 # Environment: TOPA (the binary; default target/release/topa), LANES (default 1), THREADS (per lane; default
-# cores/LANES, 0 = all cores).
+# cores/LANES, 0 = all cores), TERRAIN_CONFIG and SCAN_CONFIG (default terrain.toml and terrain-scan.toml beside
+# CONFIG; their base chain should lead to CONFIG).
 set -euo pipefail
-usage="usage: scripts/train_seeds.sh CONFIG RUNS [--ship] [RUN …]   (e.g. configs/cpu.toml ~/runs C1 C2)"
+usage="usage: scripts/train_seeds.sh CONFIG RUNS [--ship] [RUN …]   (e.g. configs/cpu.toml ~/runs C1 C2 C-terrain1)"
 [ $# -ge 2 ] || { echo "$usage" >&2; exit 2; }
 config=$1 runs=$2
 shift 2
@@ -21,15 +28,27 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 topa=${TOPA:-$here/target/release/topa}
 [ -x "$topa" ] || { echo "$topa: not built (cargo build --release), or set TOPA" >&2; exit 2; }
 all="C1 C2 C3 C4 C5 O1 O2 O3 CA1 CA2 CA3 CA4 CA5"
+groups="C O CA C-terrain O-terrain CA-terrain C-terrain-scan C-terrain-blind"
 read -r -a wanted <<<"${*:-$all}"
+terrain_config=${TERRAIN_CONFIG:-$(dirname "$config")/terrain.toml}
+scan_config=${SCAN_CONFIG:-$(dirname "$config")/terrain-scan.toml}
 lanes=${LANES:-1}
 [[ "$lanes" =~ ^[1-9][0-9]*$ ]] || { echo "LANES=$lanes: give a number of lanes ≥ 1" >&2; exit 2; }
 
 # Every name is checked before anything trains, so a typo does not surface hours later.
 for run in "${wanted[@]}"; do
     group=${run%%[0-9]*} seed=${run#"$group"}
-    case "$group" in C | O | CA) ;; *) echo "$run: not one of $all" >&2; exit 2 ;; esac
+    [[ " $groups " == *" $group "* ]] || { echo "$run: not a group of seeds (one of: $groups; e.g. C1)" >&2; exit 2; }
     [[ "$seed" =~ ^[1-9][0-9]*$ ]] || { echo "$run: no seed number (e.g. C1)" >&2; exit 2; }
+    case "$group" in
+        C-terrain-scan | C-terrain-blind) need=$scan_config ;;
+        *-terrain) need=$terrain_config ;;
+        *) need="" ;;
+    esac
+    if [ -n "$need" ] && [ ! -f "$need" ]; then
+        echo "$run: $need: no such preset (set TERRAIN_CONFIG / SCAN_CONFIG)" >&2
+        exit 2
+    fi
 done
 mkdir -p "$runs"
 
@@ -78,20 +97,33 @@ EOF
 threads=${THREADS:-0}
 for run in "${wanted[@]}"; do
     group=${run%%[0-9]*} seed=${run#"$group"}
+    # What the run forks from (a group of the same seed), and how it starts.
     case "$group" in
-        C) start=(--config "$config" --model closed --seed "$seed") ;;
-        O) start=(--config "$config" --model open --seed "$seed") ;;
-        CA)
-            c="$runs/C-s$seed"
-            # In a lane, wait for a C that another lane trains (one later in this lane would never come).
-            if ! finished "$c" && [[ " ${TRAIN_SEEDS_ALL:-} " == *" C$seed "* && " ${wanted[*]} " != *" C$seed "* ]]
-            then
-                echo "== $run: waiting for $c to finish" >&2
-                until finished "$c"; do sleep "${TRAIN_SEEDS_POLL_S:-30}"; done
-            fi
-            finished "$c" || { echo "$run needs a finished $c first (run C$seed)" >&2; exit 1; }
-            start=(--config "$config" --adversary --init-from "$runs/C-s$seed" --seed "$seed") ;;
+        C) from="" start=(--config "$config" --model closed) ;;
+        O) from="" start=(--config "$config" --model open) ;;
+        CA) from=C start=(--config "$config" --adversary) ;;
+        C-terrain) from=C start=(--config "$terrain_config") ;;
+        O-terrain) from=O start=(--config "$terrain_config" --model open) ;;
+        CA-terrain) from=C-terrain start=(--config "$terrain_config" --adversary) ;;
+        C-terrain-scan) from=C-terrain start=(--config "$scan_config") ;;
+        C-terrain-blind)
+            # The control: as many iterations as the scan run, on the blind terrain preset.
+            scan_iters=$("$topa" config show "$scan_config" | python3 -c \
+                'import sys, tomllib; print(tomllib.loads(sys.stdin.read())["run"]["iterations"])')
+            from=C-terrain start=(--config "$terrain_config" --iterations "$scan_iters") ;;
     esac
+    if [ -n "$from" ]; then
+        c="$runs/$from-s$seed"
+        # In a lane, wait for a run that another lane trains (one later in this lane would never come).
+        if ! finished "$c" && [[ " ${TRAIN_SEEDS_ALL:-} " == *" $from$seed "* && " ${wanted[*]} " != *" $from$seed "* ]]
+        then
+            echo "== $run: waiting for $c to finish" >&2
+            until finished "$c"; do sleep "${TRAIN_SEEDS_POLL_S:-30}"; done
+        fi
+        finished "$c" || { echo "$run needs a finished $c first (run $from$seed)" >&2; exit 1; }
+        start+=(--init-from "$c")
+    fi
+    start+=(--seed "$seed")
     out="$runs/$group-s$seed"
     if [ -f "$out/checkpoints/latest.json" ]; then
         echo "== $run: resuming $out" >&2
@@ -102,6 +134,8 @@ for run in "${wanted[@]}"; do
         "$topa" train "${start[@]}" --threads "$threads" --quiet --out "$out" >"$out.log" 2>&1
     fi
     if [ "$ship" = 1 ]; then
-        python3 "$here/scripts/ship_policy.py" "$out" "$group/seed$seed"
+        dest=$group/seed$seed
+        [ "$group" = C-terrain-blind ] && dest=C-terrain-scan/blind/seed$seed
+        python3 "$here/scripts/ship_policy.py" "$out" "$dest"
     fi
 done

@@ -8,12 +8,17 @@ use std::process::{Command, Output};
 
 const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/train_seeds.sh");
 const CONFIG: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/cpu.toml");
+const TERRAIN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/terrain.toml");
+const SCAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/terrain-scan.toml");
 
-/// Stands in for `topa train`: logs "start RUN" / "end RUN" (and for a C+A the C and iteration it forks from) to
-/// $STUB_LOG, sleeps $STUB_S_<group> seconds, fails for a run named in $STUB_FAIL, and writes a finished run's
-/// checkpoint sidecar (iteration = `run.iterations` = 10) and policy.json.
+/// Stands in for `topa train`: logs "start RUN" / "end RUN" (for a fork also the run and iteration it forks from,
+/// and every run's arguments) to $STUB_LOG, sleeps $STUB_S_<group> seconds, fails for a run named in $STUB_FAIL,
+/// and writes a finished run's checkpoint sidecar (iteration = `run.iterations` = 10) and policy.json. As
+/// `topa config show FILE` it prints the file.
 const STUB: &str = r#"#!/usr/bin/env bash
 set -eu
+if [ "$1" = config ]; then cat "$3"; exit 0; fi
+all="$*"
 out="" resume="" init="" adv=0 threads=""
 while [ $# -gt 0 ]; do
     case "$1" in
@@ -28,7 +33,8 @@ done
 [ -n "$resume" ] && out=$resume
 name=$(basename "$out")
 echo "start $name threads=$threads resume=$([ -n "$resume" ] && echo 1 || echo 0)" >>"$STUB_LOG"
-if [ "$adv" = 1 ]; then
+echo "args $name $all" >>"$STUB_LOG"
+if [ -n "$init" ]; then
     it=$(sed -n 's/.*"iteration": \([0-9]*\).*/\1/p' "$init/checkpoints/latest.json")
     echo "fork $name from $(basename "$init") at $it" >>"$STUB_LOG"
 fi
@@ -167,7 +173,7 @@ fn a_failing_lane_stops_the_call_and_the_lane_waiting_on_it() {
 fn bad_arguments_are_one_error_each_before_anything_trains() {
     let bed = Bed::new("bad");
     for (runs, lanes, says) in [
-        (&["C1", "X2"][..], "1", "X2: not one of"),
+        (&["C1", "X2"][..], "1", "X2: not a group of seeds"),
         (&["C"][..], "1", "C: no seed number"),
         (&["C1"][..], "two", "LANES=two"),
     ] {
@@ -177,8 +183,49 @@ fn bad_arguments_are_one_error_each_before_anything_trains() {
         assert_eq!(o.status.code(), Some(2), "{}", text(&o));
         assert!(text(&o).contains(says), "{says}: {}", text(&o));
     }
+    // A terrain run whose preset is missing is refused up front too, not when its turn comes.
+    let mut c = bed.driver(1, &["C1", "C-terrain1"]);
+    c.env("TERRAIN_CONFIG", bed.dir.join("none.toml"));
+    let o = c.output().unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("none.toml: no such preset"), "{}", text(&o));
     let o = Command::new("bash").arg(SCRIPT).arg("configs/none.toml").arg(bed.runs()).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).contains("configs/none.toml: no such preset"), "{}", text(&o));
     assert!(bed.events().is_empty(), "{:#?}", bed.events());
+}
+
+#[test]
+fn terrain_runs_fork_from_their_flat_run_and_the_blind_control_gets_the_scan_runs_length() {
+    let bed = Bed::new("terrain");
+    // Dealt out in turn, lane 1: C2, C3, CA-terrain2; lane 2: C-terrain2, C-terrain3, C-terrain-blind3 — each lane
+    // waits for a run of the other.
+    let runs = ["C2", "C-terrain2", "C3", "C-terrain3", "CA-terrain2", "C-terrain-blind3"];
+    let mut c = bed.driver(2, &runs);
+    c.env("STUB_S_C", "1.0");
+    let o = c.output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    for run in ["C-s2", "C-s3", "C-terrain-s2", "C-terrain-s3", "CA-terrain-s2", "C-terrain-blind-s3"] {
+        assert!(finished(&bed.runs(), run), "{run} not trained:\n{}", text(&o));
+    }
+    let ev = bed.events();
+    let args = |run: &str| ev.iter().find(|e| e.starts_with(&format!("args {run} "))).cloned().unwrap_or_default();
+    // Each terrain run starts from its flat (or terrain) run's last checkpoint, on the terrain preset.
+    assert!(ev.contains(&"fork C-terrain-s2 from C-s2 at 10".to_owned()), "{ev:#?}");
+    assert!(ev.contains(&"fork CA-terrain-s2 from C-terrain-s2 at 10".to_owned()), "{ev:#?}");
+    assert!(ev.contains(&"fork C-terrain-blind-s3 from C-terrain-s3 at 10".to_owned()), "{ev:#?}");
+    assert!(args("C-terrain-s2").contains(&format!("--config {TERRAIN}")), "{ev:#?}");
+    assert!(args("CA-terrain-s2").contains("--adversary"), "{ev:#?}");
+    // The blind control runs as many iterations as the scan preset's run.
+    let scan: toml::Value = toml::from_str(&std::fs::read_to_string(SCAN).unwrap()).unwrap();
+    let n = scan["run"]["iterations"].as_integer().unwrap();
+    assert!(args("C-terrain-blind-s3").contains(&format!("--config {TERRAIN} --iterations {n} ")), "{ev:#?}");
+    // A run waits for the one it forks from when the other lane trains it.
+    assert!(bed.at("end C-s2") < bed.at("start C-terrain-s2"), "{ev:#?}");
+    assert!(bed.at("end C-terrain-s2") < bed.at("start CA-terrain-s2"), "{ev:#?}");
+    assert!(
+        text(&o).contains("C-terrain2: waiting for") && text(&o).contains("CA-terrain2: waiting for"),
+        "{}",
+        text(&o)
+    );
 }
