@@ -257,7 +257,6 @@ pub fn markdown(f: &Field, paper: &PaperTables) -> String {
     s
 }
 
-/// The paper's real-world claims, per mode: (claim, holds, numbers).
 /// The paper's real-world claims per mode: (claim, verdict — None when the data cannot decide —, numbers).
 pub fn claims(f: &Field) -> Vec<(String, Option<bool>, String)> {
     let mut out = Vec::new();
@@ -266,7 +265,9 @@ pub fn claims(f: &Field) -> Vec<(String, Option<bool>, String)> {
         let get = |k: Group| groups.iter().find(|g| g.group == k);
         if let Some(o) = get(Group::O) {
             let clean = o.clean_times().len();
-            let most_hits = groups.iter().all(|g| g.group == Group::O || g.limit_hits().mean <= o.limit_hits().mean);
+            // Strictly the most: O tied with another group (all at zero, say) does not have the most.
+            let others: Vec<_> = groups.iter().filter(|g| g.group != Group::O).collect();
+            let most_hits = !others.is_empty() && others.iter().all(|g| g.limit_hits().mean < o.limit_hits().mean);
             out.push((
                 format!("{mode}: O does not finish cleanly at any speed, or has the most joint-limit hits"),
                 Some(clean == 0 || most_hits),
@@ -461,6 +462,19 @@ mod tests {
         );
         assert!(c[3].2.contains("interventions per seed: [2, 2, 2, 2, 2]"), "{}", c[3].2);
         assert!(claims_markdown(&field(vec![])).contains("| holds |"));
+
+        // O finishing clean is the paper's claim broken unless it hits the joint limits most; a tie is not most.
+        let o_clean = |o_hits: f64, c_hits: f64| {
+            claims(&field(vec![
+                policy(Group::O, "o1", vec![run(0.7, true, 300.0, 0, o_hits)], 0),
+                policy(Group::C, "c1", vec![run(0.7, true, 200.0, 0, c_hits)], 0),
+            ]))[0]
+                .1
+        };
+        assert_eq!(o_clean(0.0, 0.0), Some(false));
+        assert_eq!(o_clean(1.0, 1.0), Some(false));
+        assert_eq!(o_clean(2.0, 1.0), Some(true));
+        assert_eq!(o_clean(1.0, 2.0), Some(false));
     }
 
     #[test]
