@@ -35,20 +35,32 @@ scan_config=${SCAN_CONFIG:-$(dirname "$config")/terrain-scan.toml}
 lanes=${LANES:-1}
 [[ "$lanes" =~ ^[1-9][0-9]*$ ]] || { echo "LANES=$lanes: give a number of lanes ≥ 1" >&2; exit 2; }
 
+# What a run of group $1 forks from (a group of the same seed), the presets it reads, and how it starts (the blind
+# control: the blind terrain preset for $scan_iters iterations, the scan preset's run).
+plan() {
+    case "$1" in
+        C) from="" reads=("$config") start=(--config "$config" --model closed) ;;
+        O) from="" reads=("$config") start=(--config "$config" --model open) ;;
+        CA) from=C reads=("$config") start=(--config "$config" --adversary) ;;
+        C-terrain) from=C reads=("$terrain_config") start=(--config "$terrain_config") ;;
+        O-terrain) from=O reads=("$terrain_config") start=(--config "$terrain_config" --model open) ;;
+        CA-terrain) from=C-terrain reads=("$terrain_config") start=(--config "$terrain_config" --adversary) ;;
+        C-terrain-scan) from=C-terrain reads=("$scan_config") start=(--config "$scan_config") ;;
+        C-terrain-blind)
+            from=C-terrain reads=("$terrain_config" "$scan_config")
+            start=(--config "$terrain_config" --iterations "${scan_iters:-}") ;;
+        *) return 1 ;;
+    esac
+}
+
 # Every name is checked before anything trains, so a typo does not surface hours later.
 for run in "${wanted[@]}"; do
     group=${run%%[0-9]*} seed=${run#"$group"}
-    [[ " $groups " == *" $group "* ]] || { echo "$run: not a group of seeds (one of: $groups; e.g. C1)" >&2; exit 2; }
+    plan "$group" || { echo "$run: not a group of seeds (one of: $groups; e.g. C1)" >&2; exit 2; }
     [[ "$seed" =~ ^[1-9][0-9]*$ ]] || { echo "$run: no seed number (e.g. C1)" >&2; exit 2; }
-    case "$group" in
-        C-terrain-scan | C-terrain-blind) need=$scan_config ;;
-        *-terrain) need=$terrain_config ;;
-        *) need="" ;;
-    esac
-    if [ -n "$need" ] && [ ! -f "$need" ]; then
-        echo "$run: $need: no such preset (set TERRAIN_CONFIG / SCAN_CONFIG)" >&2
-        exit 2
-    fi
+    for f in "${reads[@]}"; do
+        [ -f "$f" ] || { echo "$run: $f: no such preset (set TERRAIN_CONFIG / SCAN_CONFIG)" >&2; exit 2; }
+    done
 done
 mkdir -p "$runs"
 
@@ -97,21 +109,11 @@ EOF
 threads=${THREADS:-0}
 for run in "${wanted[@]}"; do
     group=${run%%[0-9]*} seed=${run#"$group"}
-    # What the run forks from (a group of the same seed), and how it starts.
-    case "$group" in
-        C) from="" start=(--config "$config" --model closed) ;;
-        O) from="" start=(--config "$config" --model open) ;;
-        CA) from=C start=(--config "$config" --adversary) ;;
-        C-terrain) from=C start=(--config "$terrain_config") ;;
-        O-terrain) from=O start=(--config "$terrain_config" --model open) ;;
-        CA-terrain) from=C-terrain start=(--config "$terrain_config" --adversary) ;;
-        C-terrain-scan) from=C-terrain start=(--config "$scan_config") ;;
-        C-terrain-blind)
-            # The control: as many iterations as the scan run, on the blind terrain preset.
-            scan_iters=$("$topa" config show "$scan_config" | python3 -c \
-                'import sys, tomllib; print(tomllib.loads(sys.stdin.read())["run"]["iterations"])')
-            from=C-terrain start=(--config "$terrain_config" --iterations "$scan_iters") ;;
-    esac
+    if [ "$group" = C-terrain-blind ]; then
+        scan_iters=$("$topa" config show "$scan_config" | python3 -c \
+            'import sys, tomllib; print(tomllib.loads(sys.stdin.read())["run"]["iterations"])')
+    fi
+    plan "$group"
     if [ -n "$from" ]; then
         c="$runs/$from-s$seed"
         # In a lane, wait for a run that another lane trains (one later in this lane would never come).

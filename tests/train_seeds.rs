@@ -183,12 +183,19 @@ fn bad_arguments_are_one_error_each_before_anything_trains() {
         assert_eq!(o.status.code(), Some(2), "{}", text(&o));
         assert!(text(&o).contains(says), "{says}: {}", text(&o));
     }
-    // A terrain run whose preset is missing is refused up front too, not when its turn comes.
-    let mut c = bed.driver(1, &["C1", "C-terrain1"]);
-    c.env("TERRAIN_CONFIG", bed.dir.join("none.toml"));
-    let o = c.output().unwrap();
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("none.toml: no such preset"), "{}", text(&o));
+    // A terrain run whose preset is missing is refused up front too, not when its turn comes (the blind control
+    // reads both terrain presets).
+    for run in ["C-terrain1", "C-terrain-blind1"] {
+        let mut c = bed.driver(1, &["C1", run]);
+        c.env("TERRAIN_CONFIG", bed.dir.join("none.toml"));
+        let o = c.output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(
+            text(&o).contains(&format!("{run}: ")) && text(&o).contains("none.toml: no such preset"),
+            "{}",
+            text(&o)
+        );
+    }
     let o = Command::new("bash").arg(SCRIPT).arg("configs/none.toml").arg(bed.runs()).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).contains("configs/none.toml: no such preset"), "{}", text(&o));
