@@ -12,7 +12,8 @@ const TERRAIN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/terrain.toml
 const SCAN: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/terrain-scan.toml");
 
 /// Stands in for `topa train`: logs "start RUN" / "end RUN" (for a fork also the run and iteration it forks from,
-/// and every run's arguments) to $STUB_LOG, sleeps $STUB_S_<group> seconds, fails for a run named in $STUB_FAIL,
+/// and every run's arguments) to $STUB_LOG, sleeps $STUB_S_<group> seconds (the run's name less its seed, `-` as
+/// `_`: STUB_S_C_terrain for C-terrain-s2), fails for a run named in $STUB_FAIL,
 /// and writes a finished run's checkpoint sidecar (iteration = `run.iterations` = 10) and policy.json. As
 /// `topa config show FILE` it prints the file.
 const STUB: &str = r#"#!/usr/bin/env bash
@@ -38,7 +39,8 @@ if [ -n "$init" ]; then
     it=$(sed -n 's/.*"iteration": \([0-9]*\).*/\1/p' "$init/checkpoints/latest.json")
     echo "fork $name from $(basename "$init") at $it" >>"$STUB_LOG"
 fi
-group=${name%%-*}
+group=${name%-s*}
+group=${group//-/_}
 sleep "$(eval echo "\${STUB_S_$group:-0.2}")"
 case " ${STUB_FAIL:-} " in *" $name "*) echo "stub: $name diverged" >&2; exit 1 ;; esac
 mkdir -p "$out/checkpoints"
@@ -209,7 +211,9 @@ fn terrain_runs_fork_from_their_flat_run_and_the_blind_control_gets_the_scan_run
     // waits for a run of the other.
     let runs = ["C2", "C-terrain2", "C3", "C-terrain3", "CA-terrain2", "C-terrain-blind3"];
     let mut c = bed.driver(2, &runs);
-    c.env("STUB_S_C", "1.0");
+    // C-terrain2 ends 2 s after lane 1 reaches CA-terrain2 (at 4 s against 2 s), so that lane waits whatever
+    // the machine's load; with equal lengths the two would tie and the wait could be skipped.
+    c.env("STUB_S_C", "1.0").env("STUB_S_C_terrain", "3.0");
     let o = c.output().unwrap();
     assert!(o.status.success(), "{}", text(&o));
     for run in ["C-s2", "C-s3", "C-terrain-s2", "C-terrain-s3", "CA-terrain-s2", "C-terrain-blind-s3"] {
