@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Trains the shipped seeds of a preset — C 1–5, O 1–3, then C+A 1–5, each C+A forked from the C of its seed — into
+# Trains the shipped seeds of a preset — C 1–5, O 1–5, then C+A 1–5, each C+A forked from the C of its seed — into
 # run folders under RUNS, and on request the terrain runs that fork from them. A run an earlier call left unfinished
 # is resumed from its latest checkpoint and a finished one is skipped, so the call can be repeated until everything
 # is done (a session that ends mid-run loses at most one checkpoint interval). With --ship the finished runs are then
@@ -8,7 +8,7 @@
 # another waits for it when another lane trains it): on a 2-core machine two lanes get more samples through than one
 # run on both cores.
 # Usage: scripts/train_seeds.sh CONFIG RUNS [--ship] [RUN …]   RUN (default: the flat ones):
-#   C1 … C5, O1 … O3, CA1 … CA5          the flat groups on CONFIG (CA<N> forks from C<N>)
+#   C1 … C5, O1 … O5, CA1 … CA5          the flat groups on CONFIG (CA<N> forks from C<N>)
 #   C-terrainN, O-terrainN                C<N> / O<N> continued on the terrain preset (TERRAIN_CONFIG)
 #   CA-terrainN                           C-terrain<N> forked into the terrain preset's adversary cycles
 #   C-terrain-scanN, C-terrain-blindN     C-terrain<N> forked with the height scan (SCAN_CONFIG), and the blind
@@ -27,7 +27,7 @@ if [ "${1:-}" = --ship ]; then ship=1; shift; fi
 here=$(cd "$(dirname "$0")/.." && pwd)
 topa=${TOPA:-$here/target/release/topa}
 [ -x "$topa" ] || { echo "$topa: not built (cargo build --release), or set TOPA" >&2; exit 2; }
-all="C1 C2 C3 C4 C5 O1 O2 O3 CA1 CA2 CA3 CA4 CA5"
+all="C1 C2 C3 C4 C5 O1 O2 O3 O4 O5 CA1 CA2 CA3 CA4 CA5"
 groups="C O CA C-terrain O-terrain CA-terrain C-terrain-scan C-terrain-blind"
 read -r -a wanted <<<"${*:-$all}"
 terrain_config=${TERRAIN_CONFIG:-$(dirname "$config")/terrain.toml}
