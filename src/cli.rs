@@ -133,6 +133,16 @@ pub enum Cmd {
         #[command(flatten)]
         common: eval_cmd::Common,
     },
+    /// Rewrite the generated blocks of Markdown pages (`<!-- generated: REPORT SECTION -->` … `<!-- end generated -->`)
+    /// from the ablation reports they name, e.g. the README's tables after `topa ablate --merge`.
+    Docs {
+        /// The pages (default: README.md).
+        #[arg(default_value = "README.md")]
+        pages: Vec<PathBuf>,
+        /// Only compare: fail, naming the pages, when a block differs from its report.
+        #[arg(long)]
+        check: bool,
+    },
     /// Training dashboards: several runs' metrics.csv on one figure, seeds of a group as mean and min–max band.
     Plot {
         /// Run folders (or metrics.csv files), each drawn as its own group.

@@ -6,6 +6,7 @@ pub mod bench;
 pub mod cli;
 pub mod config_reference;
 pub mod dashboard;
+pub mod doc_blocks;
 pub mod eval;
 pub mod eval_cmd;
 pub mod export;

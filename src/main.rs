@@ -57,6 +57,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             groups_cmd::run_field(groups, extent, common)
         }
+        Cmd::Docs { pages, check } => topa::doc_blocks::run(&pages, check),
         Cmd::Plot { runs, group, out } => {
             if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir)?;

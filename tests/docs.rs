@@ -131,38 +131,29 @@ fn every_relative_link_in_the_docs_resolves() {
     }
 }
 
-/// The text between `<!-- generated: FILE KIND -->` and `<!-- end generated -->` in a page.
-fn generated_blocks(text: &str) -> Vec<(String, String, String)> {
-    let mut out = Vec::new();
-    let mut rest = text;
-    while let Some(i) = rest.find("<!-- generated: ") {
-        let after = &rest[i + "<!-- generated: ".len()..];
-        let close = after.find(" -->").expect("generated marker closes");
-        let mut words = after[..close].split_whitespace();
-        let (file, kind) = (words.next().unwrap().to_string(), words.next().unwrap().to_string());
-        let body_start = close + " -->".len();
-        let end = after.find("<!-- end generated -->").expect("generated block ends");
-        out.push((file, kind, after[body_start..end].trim().to_string()));
-        rest = &after[end..];
-    }
-    out
-}
-
 #[test]
 fn the_readme_tables_are_the_committed_reports() {
     let text = std::fs::read_to_string(root().join("README.md")).unwrap();
-    let blocks = generated_blocks(&text);
-    assert!(blocks.iter().any(|(_, k, _)| k == "headline"), "the README shows the headline table");
-    for (file, kind, body) in blocks {
-        let json = std::fs::read_to_string(root().join(&file)).unwrap_or_else(|e| panic!("{file}: {e}"));
-        let a: Ablation = serde_json::from_str(&json).unwrap_or_else(|e| panic!("{file}: {e}"));
-        let want = topa::eval::ablate::section(&a, &kind).unwrap_or_else(|e| panic!("{file} {kind}: {e:#}"));
-        assert_eq!(
-            body,
-            want.trim(),
-            "README.md's {kind} table differs from {file}: run `topa ablate --merge` again or copy its table"
-        );
-    }
+    let blocks = topa::doc_blocks::blocks(&text).unwrap();
+    assert!(blocks.iter().any(|b| b.section == "headline"), "the README shows the headline table");
+    let rendered = topa::doc_blocks::render(&text, root()).unwrap();
+    assert!(rendered == text, "README.md's generated tables differ from their reports: run `topa docs README.md`");
+}
+
+#[test]
+fn topa_docs_rewrites_a_stale_number_from_the_report() {
+    let text = std::fs::read_to_string(root().join("README.md")).unwrap();
+    let b = topa::doc_blocks::blocks(&text).unwrap().into_iter().find(|b| b.section == "headline").unwrap();
+    // A table edited by hand (a group's t_fall changed) is what the rewriter must put back.
+    let body = &text[b.body.clone()];
+    let cell = body.find(" [").expect("the headline has intervals");
+    let at = b.body.start + cell - 1;
+    let digit = if &text[at..at + 1] == "7" { "8" } else { "7" };
+    let mut stale = text.clone();
+    stale.replace_range(at..at + 1, digit);
+    assert_eq!(topa::doc_blocks::render(&stale, root()).unwrap(), text);
+    // Rendering the same page twice changes nothing.
+    assert_eq!(topa::doc_blocks::render(&text, root()).unwrap(), text);
 }
 
 #[test]

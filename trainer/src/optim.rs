@@ -77,6 +77,18 @@ impl AdamW {
             .collect()
     }
 
+    /// As [`Self::gradients`], each variable's gradient taken from the first store that has one (the stores of
+    /// losses with disjoint variables).
+    pub fn gradients_of(&self, stores: &[&GradStore]) -> Result<Vec<Vec<f32>>> {
+        self.vars
+            .iter()
+            .map(|v| match stores.iter().find_map(|s| s.get(v.as_tensor())) {
+                Some(g) => g.flatten_all()?.to_vec1::<f32>(),
+                None => Ok(vec![0.0; v.elem_count()]),
+            })
+            .collect()
+    }
+
     /// Clips the gradients to `max_norm` (global L2 norm over all vars) and takes one Adam step with `lr`.
     /// A non-finite gradient skips the step and leaves weights and moments untouched.
     pub fn clipped_step(&mut self, grads: &GradStore, lr: f64, max_norm: f64) -> Result<StepInfo> {

@@ -155,24 +155,41 @@ impl Agent {
     fn minibatch_step(&mut self, b: &Batch, old_std: &[f32], stats: &mut UpdateStats) -> Result<()> {
         let rows = b.rows;
         let obs = Tensor::from_slice(&b.obs, (rows, self.ac.obs_dim), &Device::Cpu)?;
-        let mean = self.ac.actor.forward(&obs)?;
+        // The actor's loss and the critic's share no parameter, so their forward and backward passes run side by
+        // side: with two threads each pass keeps a thread busy between the other's short parallel regions. Each
+        // backward is the one the summed loss would give (same graph below each root), so the arithmetic does not
+        // depend on the thread count.
+        let (ac, ppo, losses, sym) = (&self.ac, &self.ppo, &self.losses, self.symmetry.as_ref());
+        let (actor, critic) = rayon::join(
+            || -> Result<_> {
+                let mean = ac.actor.forward(&obs)?;
+                let terms = actor_terms(ac, ppo, losses, sym, b, &mean)?;
+                let grads = backward_if_finite(&terms.total)?;
+                Ok((mean, terms, grads))
+            },
+            || -> Result<_> {
+                let value = critic_loss(ac, ppo, b, &obs)?;
+                let scaled = (&value * ppo.value_loss_coef)?;
+                let grads = backward_if_finite(&scaled)?;
+                Ok((value, grads))
+            },
+        );
+        let ((mean, terms, actor_grads), (value_loss, critic_grads)) = (actor?, critic?);
         // Adaptive learning rate from the KL between the rollout policy and the current one (rsl_rl's rule).
         let new_mean = mean.flatten_all()?.to_vec1::<f32>()?;
         let new_std = self.ac.log_std.as_tensor().exp()?.to_vec1::<f32>()?;
         let kl = actor_critic::mean_kl(&b.means, old_std, &new_mean, &new_std);
-        let terms = self.loss_terms(b, &obs, &mean)?;
         stats.minibatches += 1;
-        let loss_value = terms.total.to_scalar::<f32>()?;
+        let finite = actor_grads.is_some() && critic_grads.is_some();
         // All ranks take the same step: the mean gradient, the mean KL, and a skip if any rank's loss failed
         // (with one process the sums are the identity).
-        let mut g = if loss_value.is_finite() {
-            self.opt.gradients(&terms.total.backward()?)?
-        } else {
-            self.opt.vars().iter().map(|v| vec![0.0; v.elem_count()]).collect()
+        let mut g = match (&actor_grads, &critic_grads) {
+            (Some(a), Some(c)) => self.opt.gradients_of(&[a, c])?,
+            _ => self.opt.vars().iter().map(|v| vec![0.0; v.elem_count()]).collect(),
         };
         let mut flat = g.concat();
         self.comm.sum_f32(&mut flat);
-        let mut scalars = [kl, if loss_value.is_finite() { 0.0 } else { 1.0 }];
+        let mut scalars = [kl, if finite { 0.0 } else { 1.0 }];
         self.comm.sum_f64(&mut scalars);
         let size = self.comm.size() as f64;
         let kl = scalars[0] / size;
@@ -207,7 +224,7 @@ impl Agent {
             })
         };
         stats.surrogate += terms.surrogate.to_scalar::<f32>()? as f64;
-        stats.value_loss += terms.value.to_scalar::<f32>()? as f64;
+        stats.value_loss += value_loss.to_scalar::<f32>()? as f64;
         stats.entropy += terms.entropy.to_scalar::<f32>()? as f64;
         stats.symmetry_loss += scalar(&terms.symmetry)?;
         stats.decay_loss += scalar(&terms.decay)?;
@@ -218,46 +235,92 @@ impl Agent {
 
     /// The paper's total loss L = L_actor + L_critic + L_symmetry + L_decay and its parts, for one batch
     /// (`obs` and `mean` = π(obs) already computed). L_actor is the clipped surrogate minus the entropy bonus;
-    /// symmetry and decay carry their coefficients.
+    /// symmetry and decay carry their coefficients. (The update takes the actor's and the critic's parts apart.)
     pub fn loss_terms(&self, b: &Batch, obs: &Tensor, mean: &Tensor) -> Result<LossTerms> {
-        let cpu = Device::Cpu;
-        let rows = b.rows;
-        let ad = self.ac.act_dim;
-        let value = self.ac.critic.forward(obs)?.squeeze(1)?;
-        let log_std = self.ac.log_std.as_tensor();
-        let actions = Tensor::from_slice(&b.actions, (rows, ad), &cpu)?;
-        let old_logp = Tensor::from_slice(&b.log_probs, rows, &cpu)?;
-        let adv = Tensor::from_slice(&b.advantages, rows, &cpu)?;
-        let ret = Tensor::from_slice(&b.returns, rows, &cpu)?;
-        let old_v = Tensor::from_slice(&b.values, rows, &cpu)?;
-        let clip = self.ppo.clip;
-        let logp = actor_critic::log_prob_tensor(&actions, mean, log_std)?;
-        let ratio = (logp - old_logp)?.exp()?;
-        let surr = ratio.mul(&adv)?.minimum(&ratio.clamp(1.0 - clip, 1.0 + clip)?.mul(&adv)?)?;
-        let surrogate = surr.mean_all()?.neg()?;
-        let value_loss = if self.ppo.clip_value_loss {
-            let clipped = (&old_v + (&value - &old_v)?.clamp(-clip, clip)?)?;
-            (&value - &ret)?.sqr()?.maximum(&(clipped - &ret)?.sqr()?)?.mean_all()?
-        } else {
-            (&value - &ret)?.sqr()?.mean_all()?
-        };
-        let entropy = actor_critic::entropy_tensor(log_std)?;
-        let mut total =
-            ((&surrogate + (&value_loss * self.ppo.value_loss_coef)?)? - (&entropy * self.ppo.entropy_coef)?)?;
-        let symmetry = match (&self.symmetry, self.losses.symmetry_coef > 0.0) {
-            (Some(sym), true) => Some((symmetry_loss(&self.ac, sym, &b.obs, mean, rows)? * self.losses.symmetry_coef)?),
-            _ => None,
-        };
-        if let Some(s) = &symmetry {
-            total = (total + s)?;
-        }
-        let decay =
-            if self.losses.decay_coef > 0.0 { Some((decay_loss(&self.ac)? * self.losses.decay_coef)?) } else { None };
-        if let Some(d) = &decay {
-            total = (total + d)?;
-        }
-        Ok(LossTerms { total, surrogate, value: value_loss, entropy, symmetry, decay, ratio })
+        let a = actor_terms(&self.ac, &self.ppo, &self.losses, self.symmetry.as_ref(), b, mean)?;
+        let value = critic_loss(&self.ac, &self.ppo, b, obs)?;
+        let total = (&a.total + (&value * self.ppo.value_loss_coef)?)?;
+        Ok(LossTerms {
+            total,
+            surrogate: a.surrogate,
+            value,
+            entropy: a.entropy,
+            symmetry: a.symmetry,
+            decay: a.decay,
+            ratio: a.ratio,
+        })
     }
+}
+
+/// The gradients of `loss`, or None when its value is not finite.
+fn backward_if_finite(loss: &Tensor) -> Result<Option<candle_core::backprop::GradStore>> {
+    if loss.to_scalar::<f32>()?.is_finite() {
+        Ok(Some(loss.backward()?))
+    } else {
+        Ok(None)
+    }
+}
+
+/// The actor's part of the loss: the clipped surrogate minus the entropy bonus, plus symmetry and decay (with their
+/// coefficients); `total` is their sum.
+fn actor_terms(
+    ac: &ActorCritic,
+    ppo: &PpoConfig,
+    losses: &LossConfig,
+    sym: Option<&Symmetry>,
+    b: &Batch,
+    mean: &Tensor,
+) -> Result<ActorTerms> {
+    let cpu = Device::Cpu;
+    let rows = b.rows;
+    let log_std = ac.log_std.as_tensor();
+    let actions = Tensor::from_slice(&b.actions, (rows, ac.act_dim), &cpu)?;
+    let old_logp = Tensor::from_slice(&b.log_probs, rows, &cpu)?;
+    let adv = Tensor::from_slice(&b.advantages, rows, &cpu)?;
+    let clip = ppo.clip;
+    let logp = actor_critic::log_prob_tensor(&actions, mean, log_std)?;
+    let ratio = (logp - old_logp)?.exp()?;
+    let surr = ratio.mul(&adv)?.minimum(&ratio.clamp(1.0 - clip, 1.0 + clip)?.mul(&adv)?)?;
+    let surrogate = surr.mean_all()?.neg()?;
+    let entropy = actor_critic::entropy_tensor(log_std)?;
+    let mut total = (&surrogate - (&entropy * ppo.entropy_coef)?)?;
+    let symmetry = match (sym, losses.symmetry_coef > 0.0) {
+        (Some(sym), true) => Some((symmetry_loss(ac, sym, &b.obs, mean, rows)? * losses.symmetry_coef)?),
+        _ => None,
+    };
+    if let Some(s) = &symmetry {
+        total = (total + s)?;
+    }
+    let decay = if losses.decay_coef > 0.0 { Some((decay_loss(ac)? * losses.decay_coef)?) } else { None };
+    if let Some(d) = &decay {
+        total = (total + d)?;
+    }
+    Ok(ActorTerms { total, surrogate, entropy, symmetry, decay, ratio })
+}
+
+/// The critic's loss: the (optionally clipped) squared error of the value against the return.
+fn critic_loss(ac: &ActorCritic, ppo: &PpoConfig, b: &Batch, obs: &Tensor) -> Result<Tensor> {
+    let cpu = Device::Cpu;
+    let rows = b.rows;
+    let value = ac.critic.forward(obs)?.squeeze(1)?;
+    let ret = Tensor::from_slice(&b.returns, rows, &cpu)?;
+    if ppo.clip_value_loss {
+        let old_v = Tensor::from_slice(&b.values, rows, &cpu)?;
+        let clip = ppo.clip;
+        let clipped = (&old_v + (&value - &old_v)?.clamp(-clip, clip)?)?;
+        (&value - &ret)?.sqr()?.maximum(&(clipped - &ret)?.sqr()?)?.mean_all()
+    } else {
+        (&value - &ret)?.sqr()?.mean_all()
+    }
+}
+
+struct ActorTerms {
+    total: Tensor,
+    surrogate: Tensor,
+    entropy: Tensor,
+    symmetry: Option<Tensor>,
+    decay: Option<Tensor>,
+    ratio: Tensor,
 }
 
 /// rsl_rl's adaptive schedule: divide by 1.5 when the KL exceeds twice the target, multiply by 1.5 when it is
