@@ -426,3 +426,51 @@ impl Batch {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::symmetry::SignedPermutation;
+    use rand::SeedableRng;
+
+    /// The update's two backward passes (actor, critic) give the summed loss's gradient bit for bit: the split is a
+    /// matter of scheduling, not of arithmetic.
+    #[test]
+    fn the_split_losses_have_the_summed_losses_gradient_exactly() {
+        let (od, ad, rows) = (6, 4, 96);
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let ac = ActorCritic::new(od, ad, &[32, 16], &[32, 16], 0.7, &mut rng).unwrap();
+        let mut obs_map = SignedPermutation::identity(od);
+        obs_map.set_block(0, &[1, 0], &[1.0, -1.0]);
+        let mut act_map = SignedPermutation::identity(ad);
+        act_map.set_block(2, &[1, 0], &[-1.0, 1.0]);
+        let sym = Symmetry { obs: obs_map, act: act_map };
+        let losses = LossConfig { symmetry_coef: 0.7, decay_coef: 0.05 };
+        let ppo = PpoConfig { value_loss_coef: 0.8, entropy_coef: 0.01, ..PpoConfig::default() };
+        let agent = Agent::new(ac, ppo, losses, Some(sym));
+        let mut v = |n: usize, s: f32| -> Vec<f32> { (0..n).map(|_| rng.random_range(-s..s)).collect() };
+        let b = Batch {
+            rows,
+            obs: v(rows * od, 1.0),
+            actions: v(rows * ad, 1.0),
+            means: v(rows * ad, 0.5),
+            log_probs: v(rows, 1.0).iter().map(|x| x - 5.0).collect(),
+            values: v(rows, 1.0),
+            returns: v(rows, 2.0),
+            advantages: v(rows, 1.5),
+        };
+        let obs = Tensor::from_slice(&b.obs, (rows, od), &Device::Cpu).unwrap();
+        let mean = agent.ac.actor.forward(&obs).unwrap();
+        let summed =
+            agent.opt.gradients(&agent.loss_terms(&b, &obs, &mean).unwrap().total.backward().unwrap()).unwrap();
+        let a = actor_terms(&agent.ac, &agent.ppo, &agent.losses, agent.symmetry.as_ref(), &b, &mean).unwrap();
+        let c = (critic_loss(&agent.ac, &agent.ppo, &b, &obs).unwrap() * agent.ppo.value_loss_coef).unwrap();
+        let (ga, gc) = (backward_if_finite(&a.total).unwrap().unwrap(), backward_if_finite(&c).unwrap().unwrap());
+        let split = agent.opt.gradients_of(&[&ga, &gc]).unwrap();
+        assert!(summed.iter().all(|g| g.iter().any(|x| *x != 0.0)), "every variable has a gradient");
+        for (s, p) in summed.iter().zip(&split) {
+            let bits = |g: &[f32]| g.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(s), bits(p));
+        }
+    }
+}
