@@ -62,10 +62,15 @@ fn find_line(text: &str, from: usize, marker: &str) -> Option<usize> {
 /// The page with every generated block's body rendered again from its report (reports resolved from `dir`, the
 /// page's folder). Each report is read once.
 pub fn render(text: &str, dir: &Path) -> Result<String> {
+    render_blocks(text, &blocks(text)?, dir)
+}
+
+/// As [`render`], with the page's blocks already found.
+fn render_blocks(text: &str, blocks: &[Block], dir: &Path) -> Result<String> {
     let mut reports: Vec<(String, Ablation)> = Vec::new();
     let mut out = String::with_capacity(text.len());
     let mut at = 0;
-    for b in blocks(text)? {
+    for b in blocks {
         if !reports.iter().any(|(r, _)| *r == b.report) {
             reports.push((b.report.clone(), load(&dir.join(&b.report), b.line)?));
         }
@@ -94,8 +99,9 @@ pub fn run(pages: &[PathBuf], check: bool) -> Result<()> {
     for page in pages {
         let text = std::fs::read_to_string(page).with_context(|| format!("cannot read {}", page.display()))?;
         let dir = page.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        let new = render(&text, dir).with_context(|| format!("{}", page.display()))?;
-        let n = blocks(&text)?.len();
+        let found = blocks(&text).with_context(|| format!("{}", page.display()))?;
+        let new = render_blocks(&text, &found, dir).with_context(|| format!("{}", page.display()))?;
+        let n = found.len();
         if new == text {
             println!("{}: {n} generated block(s), up to date", page.display());
         } else if check {

@@ -68,13 +68,7 @@ impl AdamW {
 
     /// Flattened gradients of every var (zeros where a var got none).
     pub fn gradients(&self, grads: &GradStore) -> Result<Vec<Vec<f32>>> {
-        self.vars
-            .iter()
-            .map(|v| match grads.get(v.as_tensor()) {
-                Some(g) => g.flatten_all()?.to_vec1::<f32>(),
-                None => Ok(vec![0.0; v.elem_count()]),
-            })
-            .collect()
+        self.gradients_of(&[grads])
     }
 
     /// As [`Self::gradients`], each variable's gradient taken from the first store that has one (the stores of
