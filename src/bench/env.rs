@@ -135,6 +135,7 @@ pub fn run(a: &EnvBench) -> Result<()> {
         a.integrator,
         a.policy.map_or("random".to_string(), |p| format!("the policy {}", p.display()))
     );
+    println!("machine: {}", trainer::segments::this_machine());
     println!("bare physics: {phys:.0} mj_step/s on 1 thread → bound {bound1:.0} env-steps/s per thread\n");
     println!("| envs | threads | env-steps/s | ratio to bound | speed-up vs 1 thread |");
     println!("|-----:|--------:|------------:|---------------:|---------------------:|");

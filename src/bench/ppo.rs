@@ -98,7 +98,8 @@ pub fn run(threads: &[usize], repeats: usize, torch_python: Option<&str>) -> Res
     let kernel = trainer::nn::gemm_kernel();
     let ab = kernel == "AVX-512";
     println!(
-        "Matrix kernel: {kernel}{}.\n",
+        "Machine: {}; matrix kernel: {kernel}{}.\n",
+        trainer::segments::this_machine(),
         if ab { " (beside it the AVX2 kernel, two alternating rounds, best kept)" } else { "" }
     );
     println!("| threads | ours samples/s | GFLOP/s | torch samples/s | ours / torch | AVX2 kernel samples/s | AVX-512 / AVX2 | TopA iteration: env / inference / update (s) |");

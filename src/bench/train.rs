@@ -136,14 +136,15 @@ pub fn run(a: &Args) -> Result<()> {
     let integ = a.integrator.unwrap_or(env_cfg.integrator);
     println!(
         "{}: {envs} envs × {} steps, integrator {integ}, timestep {} s × {}; {} timed iterations after {} warm-up, \
-         best of {} interleaved rounds\n",
+         best of {} interleaved rounds\nmachine: {}\n",
         a.config.display(),
         cfg.run.steps_per_env,
         env_cfg.timestep,
         env_cfg.decimation,
         a.iterations,
         a.warmup,
-        a.rounds.max(1)
+        a.rounds.max(1),
+        trainer::segments::this_machine()
     );
     let start = Instant::now();
     let mut results: Vec<Option<WorkerResult>> = vec![None; a.threads.len()];

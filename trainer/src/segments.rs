@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Segment {
-    /// Logical CPUs and CPU model, e.g. "2 × AMD EPYC".
+    /// Logical CPUs, CPU model and matrix kernel, e.g. "2 × AMD EPYC (family 26 model 2, AVX-512)".
     pub machine: String,
     /// Worker threads the run used.
     pub threads: usize,
@@ -17,17 +17,37 @@ pub struct Segment {
     pub wall_time_s: f64,
 }
 
-/// This machine in the form [`Segment::machine`] uses: logical CPUs and the CPU's model name.
+/// This machine in the form [`Segment::machine`] uses: logical CPUs, the CPU's model name and, on x86-64, its
+/// family and model numbers (a virtual machine's model name is often only "AMD EPYC", which spans several
+/// generations) and the kernel of the matrix products ([`crate::nn::gemm_kernel`]): the wall time of a run depends on
+/// all of them, e.g. "2 × AMD EPYC (family 26 model 2, AVX-512)".
 pub fn this_machine() -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .find(|l| l.starts_with("model name"))
-                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+    let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    describe_machine(&cpuinfo, std::thread::available_parallelism().map_or(1, |n| n.get()), crate::nn::gemm_kernel())
+}
+
+/// [`this_machine`] from the text of `/proc/cpuinfo`, the logical CPU count and the kernel's instruction set.
+fn describe_machine(cpuinfo: &str, cpus: usize, isa: &str) -> String {
+    // The first processor's block; every logical CPU of one machine reports the same.
+    let field = |key: &str| {
+        cpuinfo.lines().find_map(|l| {
+            let (k, v) = l.split_once(':')?;
+            (k.trim() == key).then(|| v.trim().to_string())
         })
-        .unwrap_or_else(|| "unknown CPU".into());
-    format!("{} × {cpu}", std::thread::available_parallelism().map_or(1, |n| n.get()))
+    };
+    let name = field("model name").filter(|n| !n.is_empty()).unwrap_or_else(|| "unknown CPU".into());
+    let mut detail = Vec::new();
+    if let (Some(f), Some(m)) = (field("cpu family"), field("model")) {
+        detail.push(format!("family {f} model {m}"));
+    }
+    if !isa.is_empty() {
+        detail.push(isa.to_string());
+    }
+    if detail.is_empty() {
+        format!("{cpus} × {name}")
+    } else {
+        format!("{cpus} × {name} ({})", detail.join(", "))
+    }
 }
 
 /// Adds one iteration (`iteration` → `iteration + 1`, `seconds` long) to `segments`: it lengthens the last
@@ -77,5 +97,18 @@ mod tests {
         let (n, model) = m.split_once(" × ").expect("count × model");
         assert!(n.parse::<usize>().unwrap() >= 1);
         assert!(!model.is_empty());
+    }
+
+    #[test]
+    fn the_machine_line_carries_family_model_and_kernel() {
+        let info = "processor\t: 0\nvendor_id\t: AuthenticAMD\ncpu family\t: 26\nmodel\t\t: 2\n\
+                    model name\t: AMD EPYC\nflags\t\t: fpu avx512f\n\nprocessor\t: 1\ncpu family\t: 26\n";
+        assert_eq!(describe_machine(info, 2, "AVX-512"), "2 × AMD EPYC (family 26 model 2, AVX-512)");
+        assert_eq!(describe_machine(info, 2, ""), "2 × AMD EPYC (family 26 model 2)");
+        // No /proc/cpuinfo (another OS): the count and an honest unknown.
+        assert_eq!(describe_machine("", 4, ""), "4 × unknown CPU");
+        // "model name" must not be taken for "model".
+        let arm = "model name\t: Neoverse\n";
+        assert_eq!(describe_machine(arm, 8, ""), "8 × Neoverse");
     }
 }
