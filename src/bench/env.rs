@@ -1,8 +1,8 @@
 //! `topa bench env`: env-steps/s of the batched TopA VecEnv for several batch sizes and thread counts, against
 //! the bare physics bound (mj_step/s of one Data ÷ decimation × threads), measured in the same run
 //! (best of interleaved rounds). Beside it the in-run bound: the same envs' own physics time, which is what a
-//! robot that falls and lies on the floor (more contacts than standing) costs; the ratio to it is the overhead
-//! alone.
+//! robot that falls and lies on the floor (more contacts than standing) costs; what the ratio to it falls short of
+//! 1 is the env's own overhead.
 
 use std::path::Path;
 use std::time::Instant;
