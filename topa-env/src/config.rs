@@ -88,6 +88,10 @@ pub struct AdversaryBounds {
     /// How long the command offset is held, s: 0 lets it change at every policy step (50 Hz); above 0 it takes
     /// the adversary's value only every `command_hold_s` of an episode (an operator's command changes, not jitter).
     pub command_hold_s: f64,
+    /// Keeps a turn in place one under attack: while the env's own command has no linear part and a yaw rate,
+    /// the adversary's linear command offset is dropped (its yaw offset still applies). Off, an attacked env never
+    /// sees a pure turn in place.
+    pub pure_turns_in_place: bool,
 }
 
 impl Default for AdversaryBounds {
@@ -98,6 +102,7 @@ impl Default for AdversaryBounds {
             max_foot_force: 20.0,
             generic_bound: 1.0,
             command_hold_s: 0.0,
+            pure_turns_in_place: false,
         }
     }
 }

@@ -429,6 +429,42 @@ fn a_held_command_offset_changes_only_at_the_hold_boundaries() {
     assert!(err.contains("adversary.command_hold_s"), "{err}");
 }
 
+/// `pure_turns_in_place`: on a turn in place the adversary's linear command offset is dropped from what the policy
+/// sees and is rewarded on (the yaw offset stays); other commands, standing included, take the whole offset.
+#[test]
+fn a_pure_turn_in_place_stays_one_under_attack() {
+    let run = |pure: bool, command: [f64; 3]| {
+        let mut cfg = quiet(ModelKind::Closed);
+        cfg.rewards.scale_by_dt = false;
+        cfg.adversary.pure_turns_in_place = pure;
+        let mut e = env(cfg, 6);
+        e.set_command_override(Some(command));
+        let mut obs = vec![0.0; OBS_DIM];
+        e.reset(&mut obs).unwrap();
+        let mut p = [0.0f32; 12];
+        p[..3].copy_from_slice(&[0.3, -0.2, 0.1]);
+        e.set_perturbation(&p);
+        e.step(&[0.0; 10], &mut obs);
+        let seen: Vec<f64> = (0..3).map(|i| obs[OBS_COMMAND + i] as f64).collect();
+        let names = e.term_names();
+        let lin = e.terms()[names.iter().position(|x| *x == "lin_vel_xy_tracking").unwrap()];
+        (e.command(), seen, lin)
+    };
+    let near = |a: [f64; 3], b: [f64; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+    let (turn, seen, lin_pure) = run(true, [0.0, 0.0, -0.8]);
+    assert!(near(turn, [0.0, 0.0, -0.7]), "{turn:?}");
+    assert!(near([seen[0], seen[1], seen[2]], turn), "observed {seen:?}");
+    let (turn_off, _, lin_off) = run(false, [0.0, 0.0, -0.8]);
+    assert!(near(turn_off, [0.3, -0.2, -0.7]), "{turn_off:?}");
+    // A robot barely moving after one step tracks a zero linear command far better than (0.3, −0.2) m/s.
+    assert!(lin_pure > 2.9 && lin_off < 0.8 * lin_pure, "lin_vel_xy_tracking {lin_pure} vs {lin_off}");
+    for command in [[0.0; 3], [0.5, 0.0, 0.0], [0.0, 0.3, 0.6]] {
+        let (c, _, _) = run(true, command);
+        let want: [f64; 3] = std::array::from_fn(|i| command[i] + [0.3, -0.2, 0.1][i]);
+        assert!(near(c, want), "{command:?}: {c:?}");
+    }
+}
+
 /// The command mix: `standing_share` of the commands all zero, `turn_share` turning in place (no linear part, a
 /// yaw rate inside its range), the rest drawn from the three ranges; shares summing past one are refused.
 #[test]

@@ -215,7 +215,12 @@ impl RobotEnv {
     /// The command the policy sees (own command, or override, plus the perturbation offset).
     pub fn command(&self) -> [f64; 3] {
         let base = self.command_override.unwrap_or(self.command);
-        std::array::from_fn(|i| base[i] + self.perturbation.command_offset[i])
+        let mut offset = self.perturbation.command_offset;
+        if self.cfg.adversary.pure_turns_in_place && base[0] == 0.0 && base[1] == 0.0 && base[2] != 0.0 {
+            offset[0] = 0.0;
+            offset[1] = 0.0;
+        }
+        std::array::from_fn(|i| base[i] + offset[i])
     }
     /// Fixes the command (evaluation); `None` returns to random commands.
     pub fn set_command_override(&mut self, c: Option<[f64; 3]>) {
