@@ -445,7 +445,7 @@ fn a_pure_turn_in_place_stays_one_under_attack() {
         p[..3].copy_from_slice(&[0.3, -0.2, 0.1]);
         e.set_perturbation(&p);
         e.step(&[0.0; 10], &mut obs);
-        let seen: Vec<f64> = (0..3).map(|i| obs[OBS_COMMAND + i] as f64).collect();
+        let seen: [f64; 3] = std::array::from_fn(|i| obs[OBS_COMMAND + i] as f64);
         let names = e.term_names();
         let lin = e.terms()[names.iter().position(|x| *x == "lin_vel_xy_tracking").unwrap()];
         (e.command(), seen, lin)
@@ -453,7 +453,7 @@ fn a_pure_turn_in_place_stays_one_under_attack() {
     let near = |a: [f64; 3], b: [f64; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
     let (turn, seen, lin_pure) = run(true, [0.0, 0.0, -0.8]);
     assert!(near(turn, [0.0, 0.0, -0.7]), "{turn:?}");
-    assert!(near([seen[0], seen[1], seen[2]], turn), "observed {seen:?}");
+    assert!(near(seen, turn), "observed {seen:?}");
     let (turn_off, _, lin_off) = run(false, [0.0, 0.0, -0.8]);
     assert!(near(turn_off, [0.3, -0.2, -0.7]), "{turn_off:?}");
     // A robot barely moving after one step tracks a zero linear command far better than (0.3, −0.2) m/s.
