@@ -1,7 +1,7 @@
 //! Perturbation hooks: what an adversary or an experiment may do to one environment, and the channels the
 //! adversary sees (command offset, gravity offset, foot forces) with their bounds from `[env.adversary]`.
 
-use trainer::PerturbationChannel;
+use trainer::{PerturbationChannel, SignedPermutation};
 
 use crate::config::AdversaryBounds;
 
@@ -47,6 +47,17 @@ pub fn channels(b: &AdversaryBounds) -> Vec<PerturbationChannel> {
         PerturbationChannel::new("gravity", vec![g; 3], 3),
         PerturbationChannel::new("foot_force", vec![f; 6], 3),
     ]
+}
+
+/// The mirror of the adversary's perturbation through the world's xz-plane, the mirror `symmetry` applies to the
+/// robot's state: command (v_x, −v_y, −w_z), observed gravity (g_x, −g_y, g_z), each foot's world-frame force
+/// (f_x, −f_y, f_z) given to the other foot.
+pub fn mirror() -> SignedPermutation {
+    let flip_y = [1.0, -1.0, 1.0];
+    SignedPermutation {
+        perm: vec![0, 1, 2, 3, 4, 5, 9, 10, 11, 6, 7, 8],
+        sign: [[1.0, -1.0, -1.0], flip_y, flip_y, flip_y].concat(),
+    }
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! The single-environment interface every task implements (TopA, and the tiny test tasks); `BatchEnv` turns any
 //! `Task` into a parallel `VecEnv`.
 
-use trainer::{PerturbationChannel, Symmetry};
+use trainer::{PerturbationChannel, SignedPermutation, Symmetry};
 
 use crate::error::Result;
 
@@ -36,6 +36,10 @@ pub trait Task: Send {
     }
     /// Sets the adversary's perturbation (the channels' values, in order), held until changed.
     fn set_perturbation(&mut self, _p: &[f32]) {}
+    /// The perturbation's left↔right mirror, the one `symmetry` applies to the world (None: none).
+    fn perturbation_mirror(&self) -> Option<SignedPermutation> {
+        None
+    }
     /// Appends the task's complete state (to continue bit for bit after a restore).
     fn save_state(&self, f64s: &mut Vec<f64>, u64s: &mut Vec<u64>);
     /// Restores what `save_state` wrote; returns how many of each it consumed.

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 use trainer::vec_env::{perturbation_dim, EnvSnapshot, EpisodeStats, PerturbationChannel, StepTiming, VecEnv};
-use trainer::Symmetry;
+use trainer::{SignedPermutation, Symmetry};
 
 use crate::error::{EnvError, Result};
 use crate::task::Task;
@@ -259,6 +259,9 @@ impl<T: Task> VecEnv for BatchEnv<T> {
     }
     fn perturbation_channels(&self) -> Vec<PerturbationChannel> {
         self.tasks[0].perturbation_channels()
+    }
+    fn perturbation_mirror(&self) -> Option<SignedPermutation> {
+        self.tasks[0].perturbation_mirror()
     }
     fn set_perturbations(&mut self, p: &[f32]) -> anyhow::Result<()> {
         let pd = perturbation_dim(&self.perturbation_channels());

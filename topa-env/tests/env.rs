@@ -92,10 +92,10 @@ fn mirror_into(src: &RobotEnv, dst: &mut RobotEnv, obs: &mut [f32]) {
     dst.refresh(obs).unwrap();
 }
 
-/// Steps a robot and its mirror image with mirrored actions and commands; returns the largest difference between
-/// the mirrored observation of the one and the observation of the other. The maps are the env's own (derived
-/// from the robot's spec).
-fn mirror_equivariance(robot: &str) -> f32 {
+/// Steps a robot and its mirror image with mirrored actions and commands (and, given them, an adversary's
+/// perturbation on each); returns the largest difference between the mirrored observation of the one and the
+/// observation of the other. The maps are the env's own (derived from the robot's spec).
+fn mirror_equivariance(robot: &str, perturbations: Option<([f32; 12], [f32; 12])>) -> f32 {
     let mut cfg = quiet(ModelKind::Closed);
     cfg.robot = robot.into();
     let mut rng = ChaCha8Rng::seed_from_u64(7);
@@ -109,6 +109,10 @@ fn mirror_equivariance(robot: &str) -> f32 {
     let cmd = [0.3, 0.2, 0.5];
     a.set_command_override(Some(cmd));
     b.set_command_override(Some([cmd[0], -cmd[1], -cmd[2]]));
+    if let Some((p_a, p_b)) = perturbations {
+        a.set_perturbation(&p_a);
+        b.set_perturbation(&p_b);
+    }
     // Drive A into an asymmetric, physically consistent state.
     for _ in 0..10 {
         let act: Vec<f32> = (0..n).map(|_| rng.random_range(-0.5..0.5)).collect();
@@ -136,13 +140,30 @@ fn mirror_equivariance(robot: &str) -> f32 {
 #[test]
 fn closed_model_dynamics_are_mirror_equivariant() {
     assert_eq!(env(quiet(ModelKind::Closed), 1).symmetry(), Some(topa_env::topa::symmetry()));
-    let worst = mirror_equivariance("assets/robots/topa_closed.toml");
+    let worst = mirror_equivariance("assets/robots/topa_closed.toml", None);
     assert!(worst < 1e-3, "mirrored dynamics differ by {worst}: a sign in S_o/S_a or the model is wrong");
 }
 
 #[test]
+fn a_mirrored_perturbation_on_the_mirrored_robot_gives_the_mirrored_motion() {
+    // Every channel at once: a command offset, a tilted IMU, and a different force on each foot, each with a
+    // sideways part (the values the mirror changes).
+    let p = [0.2, 0.15, -0.2, 0.05, 0.08, -0.03, 6.0, 9.0, -4.0, -3.0, -12.0, 5.0];
+    let mirror = env(quiet(ModelKind::Closed), 1).perturbation_mirror().unwrap();
+    assert!(mirror.is_involution());
+    let mut p_m = [0.0; 12];
+    mirror.apply(&p, &mut p_m);
+    let robot = "assets/robots/topa_closed.toml";
+    let worst = mirror_equivariance(robot, Some((p, p_m)));
+    assert!(worst < 1e-3, "the perturbation's mirror is not the world's: differences up to {worst}");
+    // The same perturbation on both sides breaks the mirror image.
+    let unmirrored = mirror_equivariance(robot, Some((p, p)));
+    assert!(unmirrored > 1e-2, "an unmirrored perturbation kept the mirror image ({unmirrored})");
+}
+
+#[test]
 fn the_second_robots_dynamics_are_mirror_equivariant() {
-    let worst = mirror_equivariance("assets/robots/kestrel.toml");
+    let worst = mirror_equivariance("assets/robots/kestrel.toml", None);
     assert!(worst < 1e-3, "Kestrel's mirrored dynamics differ by {worst}: a mirror sign in its spec is wrong");
 }
 

@@ -5,7 +5,81 @@
 //! It observes exactly what the policy observes (perturbed command and gravity included): that is enough to
 //! time attacks to the gait phase and to the command, and keeps it deployable on the same signals.
 
+use crate::symmetry::SignedPermutation;
 use crate::vec_env::PerturbationChannel;
+
+/// How every other env is attacked through the mirror (`adversary.mirror_attacks`): the adversary sees the mirror
+/// image of an odd env's observation, and that env gets the mirror image of the adversary's perturbation. The
+/// adversary's view stays one consistent world (it never sees both images of one state as different states), while
+/// the attacks the policy meets become left↔right symmetric: an adversary that learned to attack one side does so
+/// on both. Exact, not approximate: mirroring the world twice is the identity.
+#[derive(Debug, Clone)]
+pub struct AttackMirror {
+    obs: SignedPermutation,
+    perturbation: SignedPermutation,
+}
+
+impl AttackMirror {
+    /// Checks the task's maps: the sizes, both involutions, and bounds the mirror maps onto themselves (a mirrored
+    /// perturbation stays inside them).
+    pub fn new(
+        obs: SignedPermutation,
+        perturbation: SignedPermutation,
+        obs_dim: usize,
+        bounds: &[f32],
+    ) -> Result<Self, String> {
+        if obs.len() != obs_dim || perturbation.len() != bounds.len() {
+            return Err(format!(
+                "the task's mirrors cover {} observation and {} perturbation values, it has {obs_dim} and {}",
+                obs.len(),
+                perturbation.len(),
+                bounds.len()
+            ));
+        }
+        if !obs.is_involution() || !perturbation.is_involution() {
+            return Err("the task's observation or perturbation mirror is not its own inverse".into());
+        }
+        if let Some(i) = (0..bounds.len()).find(|&i| bounds[perturbation.perm[i]] != bounds[i]) {
+            return Err(format!(
+                "perturbation value {i} is bounded at {} and its mirror image at {}: mirrored attacks need equal bounds",
+                bounds[i],
+                bounds[perturbation.perm[i]]
+            ));
+        }
+        Ok(AttackMirror { obs, perturbation })
+    }
+
+    /// Whether env `e` is attacked through the mirror: the odd ones, so that in phase 3 half of the attacked
+    /// share (the first envs) is mirrored too.
+    pub fn mirrors(e: usize) -> bool {
+        e % 2 == 1
+    }
+
+    /// The adversary's view of observation rows: `dst` = `src` with the rows of mirrored envs mirrored; row `i`
+    /// belongs to env `env_of_row(i)`.
+    pub fn view(&self, src: &[f32], dst: &mut Vec<f32>, env_of_row: impl Fn(usize) -> usize) {
+        let d = self.obs.len();
+        dst.clear();
+        dst.extend_from_slice(src);
+        for (i, (s, o)) in src.chunks_exact(d).zip(dst.chunks_exact_mut(d)).enumerate() {
+            if Self::mirrors(env_of_row(i)) {
+                self.obs.apply(s, o);
+            }
+        }
+    }
+
+    /// Mirrors, in place, the perturbation rows (one per env) of the mirrored envs.
+    pub fn apply(&self, p: &mut [f32]) {
+        let d = self.perturbation.len();
+        let mut row = vec![0.0; d];
+        for (e, r) in p.chunks_exact_mut(d).enumerate() {
+            if Self::mirrors(e) {
+                self.perturbation.apply(r, &mut row);
+                r.copy_from_slice(&row);
+            }
+        }
+    }
+}
 
 /// The bound of every value of the perturbation vector, channel after channel.
 pub fn bounds(channels: &[PerturbationChannel]) -> Vec<f32> {
@@ -54,6 +128,27 @@ pub fn reward(task_reward: f32, perturbation: &[f32], bounds: &[f32], cost: f64)
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_attack_mirror_maps_odd_envs_only_and_refuses_inconsistent_maps() {
+        let sign = |s: &[f32]| SignedPermutation { perm: (0..s.len()).collect(), sign: s.to_vec() };
+        let swap = SignedPermutation { perm: vec![1, 0], sign: vec![1.0, 1.0] };
+        let m = AttackMirror::new(sign(&[1.0, -1.0]), swap.clone(), 2, &[1.0, 1.0]).unwrap();
+        let mut view = Vec::new();
+        m.view(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0], &mut view, |i| i);
+        assert_eq!(view, [1.0, 2.0, 3.0, -4.0, 5.0, 6.0]);
+        // Rows of envs 3 and 4 (e.g. the time-outs of one step): env 3's row mirrored.
+        m.view(&[1.0, 2.0, 3.0, 4.0], &mut view, |i| [3, 4][i]);
+        assert_eq!(view, [1.0, -2.0, 3.0, 4.0]);
+        let mut p = [0.1, 0.2, 0.3, 0.4];
+        m.apply(&mut p);
+        assert_eq!(p, [0.1, 0.2, 0.4, 0.3]);
+        let err = AttackMirror::new(sign(&[1.0, -1.0]), swap.clone(), 2, &[1.0, 2.0]).unwrap_err();
+        assert!(err.contains("bounded at 1") && err.contains("equal bounds"), "{err}");
+        assert!(AttackMirror::new(sign(&[1.0]), swap.clone(), 2, &[1.0, 1.0]).unwrap_err().contains("cover 1"));
+        let not_inverse = SignedPermutation { perm: vec![1, 0], sign: vec![1.0, -1.0] };
+        assert!(AttackMirror::new(sign(&[1.0, 1.0]), not_inverse, 2, &[1.0, 1.0]).is_err());
+    }
 
     #[test]
     fn a_channel_bounded_at_zero_is_off_and_costs_nothing() {

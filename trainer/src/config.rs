@@ -215,6 +215,10 @@ pub struct AdversaryConfig {
     /// default): a schedule that decays to none by the end of phase 1 would leave the policy's exploration
     /// shrinking through every cycle against the adversary.
     pub policy_entropy_coef: f64,
+    /// Every other env (the odd ones) is attacked through the mirror: the adversary sees the mirror image of
+    /// its observation and the env gets the mirror image of its perturbation (ours), so the attacks a policy
+    /// meets are left↔right symmetric while the adversary keeps one consistent view of the world.
+    pub mirror_attacks: bool,
 }
 
 impl AdversaryConfig {
@@ -243,6 +247,7 @@ impl Default for AdversaryConfig {
             sample_when_frozen: true,
             attack_share: 1.0,
             policy_entropy_coef: 0.01,
+            mirror_attacks: false,
         }
     }
 }

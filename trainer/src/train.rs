@@ -23,6 +23,8 @@ pub struct Adversary {
     pub agent: Agent,
     pub channels: Vec<PerturbationChannel>,
     pub bounds: Vec<f32>,
+    /// Set by `adversary.mirror_attacks`: the odd envs are attacked through the mirror.
+    pub mirror: Option<adversary::AttackMirror>,
 }
 
 impl IterationLog {
@@ -93,6 +95,8 @@ struct Scratch {
     log_probs: Vec<f32>,
     values: Vec<f32>,
     adv_obs_norm: Vec<f32>,
+    /// The adversary's view of `raw_obs` when it attacks through the mirror.
+    adv_raw_obs: Vec<f32>,
     adv_actions: Vec<f32>,
     adv_means: Vec<f32>,
     adv_log_probs: Vec<f32>,
@@ -124,7 +128,19 @@ impl Trainer {
             let agent = Agent::new(ac, ppo, losses, None);
             let sched = a.schedule();
             let bounds = adversary::bounds(&channels);
-            (Some(Adversary { agent, channels, bounds }), sched)
+            let mirror = if a.mirror_attacks {
+                let (Some(sym), Some(pm)) = (env.symmetry(), env.perturbation_mirror()) else {
+                    anyhow::bail!(
+                        "adversary.mirror_attacks needs a task with a left↔right mirror of its observations and \
+                         perturbations, and this one has none: set it to false"
+                    );
+                };
+                let m = adversary::AttackMirror::new(sym.obs, pm, od, &bounds);
+                Some(m.map_err(|e| anyhow::anyhow!("adversary.mirror_attacks: {e}"))?)
+            } else {
+                None
+            };
+            (Some(Adversary { agent, channels, bounds, mirror }), sched)
         } else {
             (None, Schedule::plain(cfg.run.iterations))
         };
@@ -320,6 +336,13 @@ impl Trainer {
             // The adversary perturbs (phases 2 and 3): sampling while it learns; in phase 3 as configured.
             if adversary_acts {
                 let a = self.adversary.as_mut().expect("adversary");
+                let adv_obs = match &a.mirror {
+                    Some(m) => {
+                        m.view(&s.raw_obs, &mut s.adv_raw_obs, |e| e);
+                        &s.adv_raw_obs
+                    }
+                    None => &s.raw_obs,
+                };
                 if phase == Phase::Adversary {
                     let r = self.adversary_rollout.as_mut().expect("adversary rollout");
                     let k = r.next_step();
@@ -330,7 +353,7 @@ impl Trainer {
                         log_probs: &mut r.log_probs[k * n..(k + 1) * n],
                         values: &mut r.values[k * n..(k + 1) * n],
                     };
-                    a.agent.act(&s.raw_obs, &mut self.rng, true, out)?;
+                    a.agent.act(adv_obs, &mut self.rng, true, out)?;
                     s.adv_actions.copy_from_slice(&r.actions[k * n * pd..(k + 1) * n * pd]);
                 } else {
                     let out = ActOutput {
@@ -340,9 +363,12 @@ impl Trainer {
                         log_probs: &mut s.adv_log_probs,
                         values: &mut s.adv_values,
                     };
-                    a.agent.act(&s.raw_obs, &mut self.rng, self.cfg.adversary.sample_when_frozen, out)?;
+                    a.agent.act(adv_obs, &mut self.rng, self.cfg.adversary.sample_when_frozen, out)?;
                 }
                 adversary::squash(&s.adv_actions, &a.bounds, &mut s.perturbation);
+                if let Some(m) = &a.mirror {
+                    m.apply(&mut s.perturbation);
+                }
                 if phase == Phase::PolicyUnderAttack {
                     let attacked = (self.cfg.adversary.attack_share * n as f64).ceil() as usize;
                     s.perturbation[attacked.min(n) * pd..].fill(0.0);
@@ -365,7 +391,15 @@ impl Trainer {
             self.policy.values(&final_obs, &mut last);
             self.policy_rollout.compute_returns(&last, gamma, self.cfg.ppo.gae_lambda);
         } else if let (Some(a), Some(r)) = (&mut self.adversary, &mut self.adversary_rollout) {
-            a.agent.values(&final_obs, &mut last);
+            let mut view = Vec::new();
+            let adv_obs = match &a.mirror {
+                Some(m) => {
+                    m.view(&final_obs, &mut view, |e| e);
+                    &view
+                }
+                None => &final_obs,
+            };
+            a.agent.values(adv_obs, &mut last);
             r.compute_returns(&last, gamma, self.cfg.ppo.gae_lambda);
         }
         Ok((reward_sum / (n * steps) as f64, magnitude, inference.as_secs_f64()))
@@ -383,7 +417,14 @@ impl Trainer {
             let rows: Vec<f32> = timed_out.iter().flat_map(|&e| term[e * od..(e + 1) * od].iter().copied()).collect();
             let mut v = vec![0.0f32; timed_out.len()];
             match (phase, &mut self.adversary) {
-                (Phase::Adversary, Some(a)) => a.agent.values(&rows, &mut v),
+                (Phase::Adversary, Some(a)) => match &a.mirror {
+                    Some(m) => {
+                        let mut view = Vec::new();
+                        m.view(&rows, &mut view, |i| timed_out[i]);
+                        a.agent.values(&view, &mut v)
+                    }
+                    None => a.agent.values(&rows, &mut v),
+                },
                 _ => self.policy.values(&rows, &mut v),
             }
             for (&e, &val) in timed_out.iter().zip(&v) {

@@ -4,7 +4,7 @@
 
 use anyhow::Result;
 
-use crate::symmetry::Symmetry;
+use crate::symmetry::{SignedPermutation, Symmetry};
 
 /// Statistics of the episodes that ended since the last `take_episode_stats`.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -93,6 +93,11 @@ pub trait VecEnv: Send {
     fn perturbation_channels(&self) -> Vec<PerturbationChannel>;
     /// Sets every env's perturbation (num_envs × the channels' total size).
     fn set_perturbations(&mut self, p: &[f32]) -> Result<()>;
+    /// The left↔right mirror of a perturbation vector, matching `symmetry`'s mirror of the observation: the
+    /// perturbation of the mirror-image world (None: the task has none).
+    fn perturbation_mirror(&self) -> Option<SignedPermutation> {
+        None
+    }
     /// The complete state of all envs (to resume bit for bit).
     fn save_state(&self) -> EnvSnapshot;
     fn load_state(&mut self, s: &EnvSnapshot) -> Result<()>;

@@ -552,6 +552,9 @@ impl Task for RobotEnv {
     fn perturbation_channels(&self) -> Vec<trainer::PerturbationChannel> {
         crate::perturb::channels(&self.cfg.adversary)
     }
+    fn perturbation_mirror(&self) -> Option<trainer::SignedPermutation> {
+        Some(crate::perturb::mirror())
+    }
     fn set_perturbation(&mut self, p: &[f32]) {
         let held = self.perturbation;
         self.perturbation = Perturbation::from_adversary(p);

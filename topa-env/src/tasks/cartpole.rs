@@ -130,6 +130,9 @@ impl Task for CartPole {
     fn set_perturbation(&mut self, p: &[f32]) {
         self.push = p[0] as f64;
     }
+    fn perturbation_mirror(&self) -> Option<SignedPermutation> {
+        Some(SignedPermutation { perm: vec![0], sign: vec![-1.0] })
+    }
     fn save_state(&self, f: &mut Vec<f64>, u: &mut Vec<u64>) {
         self.data.save_state(f);
         f.push(self.push);
