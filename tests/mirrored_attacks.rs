@@ -11,6 +11,9 @@ use trainer::config::TrainConfig;
 use trainer::vec_env::{EnvSnapshot, EpisodeStats, PerturbationChannel, VecEnv};
 use trainer::{SignedPermutation, Symmetry, Trainer};
 
+/// Every perturbation vector the trainer set, in order.
+type Applied = Arc<Mutex<Vec<Vec<f32>>>>;
+
 /// The cart-pole batch seen in pairs: each odd env observes the mirror image of the env before it (both its
 /// current and its terminal observation). Records every perturbation the trainer sets.
 struct MirrorPairs {
@@ -19,7 +22,7 @@ struct MirrorPairs {
     with_mirror: bool,
     obs: Vec<f32>,
     terminal: Vec<f32>,
-    applied: Arc<Mutex<Vec<Vec<f32>>>>,
+    applied: Applied,
 }
 
 impl MirrorPairs {
@@ -111,7 +114,7 @@ fn config(mirror_attacks: bool) -> TrainConfig {
     c
 }
 
-fn paired_trainer(cfg: &TrainConfig, with_mirror: bool) -> Result<(Trainer, Arc<Mutex<Vec<Vec<f32>>>>)> {
+fn paired_trainer(cfg: &TrainConfig, with_mirror: bool) -> Result<(Trainer, Applied)> {
     let inner = cartpole_trainer(cfg, false).env;
     let applied = Arc::new(Mutex::new(Vec::new()));
     let mut env = MirrorPairs {
