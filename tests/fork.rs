@@ -3,96 +3,23 @@
 
 mod common;
 
-use anyhow::Result;
+use common::view::ObsView;
 use common::{cartpole_config, cartpole_trainer};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use trainer::checkpoint;
 use trainer::ppo::ActOutput;
-use trainer::vec_env::{EnvSnapshot, EpisodeStats, PerturbationChannel, VecEnv};
-use trainer::{symmetry::Symmetry, Trainer};
+use trainer::vec_env::VecEnv;
+use trainer::Trainer;
 
 /// The cart-pole with `extra` more observation values after its own, copies of its last one (so that a policy
 /// has something to learn from them).
-struct Widened {
-    inner: Box<dyn VecEnv>,
-    extra: usize,
-    obs: Vec<f32>,
-    terminal: Vec<f32>,
-}
-
-impl Widened {
-    fn new(inner: Box<dyn VecEnv>, extra: usize) -> Self {
-        let mut w = Widened { inner, extra, obs: vec![], terminal: vec![] };
-        w.refresh();
-        w
-    }
-    fn widen(src: &[f32], d: usize, extra: usize) -> Vec<f32> {
+fn widened(inner: Box<dyn VecEnv>, extra: usize) -> ObsView {
+    let d = inner.obs_dim();
+    let widen = move |src: &[f32]| -> Vec<f32> {
         src.chunks_exact(d).flat_map(|r| r.iter().copied().chain(std::iter::repeat_n(r[d - 1], extra))).collect()
-    }
-    fn refresh(&mut self) {
-        let d = self.inner.obs_dim();
-        self.obs = Self::widen(self.inner.obs(), d, self.extra);
-        self.terminal = Self::widen(self.inner.terminal_obs(), d, self.extra);
-    }
-}
-
-impl VecEnv for Widened {
-    fn num_envs(&self) -> usize {
-        self.inner.num_envs()
-    }
-    fn obs_dim(&self) -> usize {
-        self.inner.obs_dim() + self.extra
-    }
-    fn action_dim(&self) -> usize {
-        self.inner.action_dim()
-    }
-    fn reset(&mut self) -> Result<()> {
-        self.inner.reset()?;
-        self.refresh();
-        Ok(())
-    }
-    fn step(&mut self, actions: &[f32]) -> Result<()> {
-        self.inner.step(actions)?;
-        self.refresh();
-        Ok(())
-    }
-    fn obs(&self) -> &[f32] {
-        &self.obs
-    }
-    fn rewards(&self) -> &[f32] {
-        self.inner.rewards()
-    }
-    fn dones(&self) -> &[f32] {
-        self.inner.dones()
-    }
-    fn time_outs(&self) -> &[f32] {
-        self.inner.time_outs()
-    }
-    fn terminal_obs(&self) -> &[f32] {
-        &self.terminal
-    }
-    fn term_names(&self) -> Vec<String> {
-        self.inner.term_names()
-    }
-    fn take_episode_stats(&mut self) -> EpisodeStats {
-        self.inner.take_episode_stats()
-    }
-    fn symmetry(&self) -> Option<Symmetry> {
-        None
-    }
-    fn perturbation_channels(&self) -> Vec<PerturbationChannel> {
-        vec![]
-    }
-    fn set_perturbations(&mut self, p: &[f32]) -> Result<()> {
-        self.inner.set_perturbations(p)
-    }
-    fn save_state(&self) -> EnvSnapshot {
-        self.inner.save_state()
-    }
-    fn load_state(&mut self, s: &EnvSnapshot) -> Result<()> {
-        self.inner.load_state(s)
-    }
+    };
+    ObsView::new(inner, d + extra, Box::new(widen))
 }
 
 fn first_layer(t: &Trainer) -> Vec<f32> {
@@ -113,7 +40,7 @@ fn a_policy_forked_with_added_inputs_acts_as_its_source_then_learns_them() {
     let (side, loaded) = checkpoint::read_sidecar(&checkpoint::latest(&dir).unwrap()).unwrap();
 
     let mut forked =
-        Trainer::new(cfg.clone(), Box::new(Widened::new(cartpole_trainer(&cfg, false).env, EXTRA)), false).unwrap();
+        Trainer::new(cfg.clone(), Box::new(widened(cartpole_trainer(&cfg, false).env, EXTRA)), false).unwrap();
     let err = checkpoint::init_policy_from(&mut forked, &side, &loaded, 0).unwrap_err().to_string();
     assert!(err.contains("4→1") && err.contains("7→1"), "{err}");
     checkpoint::init_policy_from(&mut forked, &side, &loaded, EXTRA).unwrap();

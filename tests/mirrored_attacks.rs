@@ -3,105 +3,11 @@
 
 mod common;
 
-use std::sync::{Arc, Mutex};
-
 use anyhow::Result;
+use common::view::{Applied, ObsView};
 use common::{cartpole_config, cartpole_trainer, set_push_bound};
 use trainer::config::TrainConfig;
-use trainer::vec_env::{EnvSnapshot, EpisodeStats, PerturbationChannel, VecEnv};
-use trainer::{SignedPermutation, Symmetry, Trainer};
-
-/// Every perturbation vector the trainer set, in order.
-type Applied = Arc<Mutex<Vec<Vec<f32>>>>;
-
-/// The cart-pole batch seen in pairs: each odd env observes the mirror image of the env before it (both its
-/// current and its terminal observation). Records every perturbation the trainer sets.
-struct MirrorPairs {
-    inner: Box<dyn VecEnv>,
-    sym: Symmetry,
-    with_mirror: bool,
-    obs: Vec<f32>,
-    terminal: Vec<f32>,
-    applied: Applied,
-}
-
-impl MirrorPairs {
-    fn paired(&self, src: &[f32]) -> Vec<f32> {
-        let d = self.sym.obs.len();
-        let mut out = src.to_vec();
-        for pair in out.chunks_exact_mut(2 * d) {
-            let (even, odd) = pair.split_at_mut(d);
-            self.sym.obs.apply(even, odd);
-        }
-        out
-    }
-    fn refresh(&mut self) {
-        self.obs = self.paired(self.inner.obs());
-        self.terminal = self.paired(self.inner.terminal_obs());
-    }
-}
-
-impl VecEnv for MirrorPairs {
-    fn num_envs(&self) -> usize {
-        self.inner.num_envs()
-    }
-    fn obs_dim(&self) -> usize {
-        self.inner.obs_dim()
-    }
-    fn action_dim(&self) -> usize {
-        self.inner.action_dim()
-    }
-    fn reset(&mut self) -> Result<()> {
-        self.inner.reset()?;
-        self.refresh();
-        Ok(())
-    }
-    fn step(&mut self, actions: &[f32]) -> Result<()> {
-        self.inner.step(actions)?;
-        self.refresh();
-        Ok(())
-    }
-    fn obs(&self) -> &[f32] {
-        &self.obs
-    }
-    fn rewards(&self) -> &[f32] {
-        self.inner.rewards()
-    }
-    fn dones(&self) -> &[f32] {
-        self.inner.dones()
-    }
-    fn time_outs(&self) -> &[f32] {
-        self.inner.time_outs()
-    }
-    fn terminal_obs(&self) -> &[f32] {
-        &self.terminal
-    }
-    fn term_names(&self) -> Vec<String> {
-        self.inner.term_names()
-    }
-    fn take_episode_stats(&mut self) -> EpisodeStats {
-        self.inner.take_episode_stats()
-    }
-    fn symmetry(&self) -> Option<Symmetry> {
-        Some(self.sym.clone())
-    }
-    fn perturbation_channels(&self) -> Vec<PerturbationChannel> {
-        self.inner.perturbation_channels()
-    }
-    fn perturbation_mirror(&self) -> Option<SignedPermutation> {
-        self.inner.perturbation_mirror().filter(|_| self.with_mirror)
-    }
-    fn set_perturbations(&mut self, p: &[f32]) -> Result<()> {
-        self.applied.lock().unwrap().push(p.to_vec());
-        self.inner.set_perturbations(p)
-    }
-    fn save_state(&self) -> EnvSnapshot {
-        self.inner.save_state()
-    }
-    fn load_state(&mut self, s: &EnvSnapshot) -> Result<()> {
-        self.inner.load_state(s)
-    }
-}
+use trainer::Trainer;
 
 /// One cycle of one iteration per phase; phase 3 attacks every env with the adversary's mean (deterministic).
 fn config(mirror_attacks: bool) -> TrainConfig {
@@ -114,18 +20,26 @@ fn config(mirror_attacks: bool) -> TrainConfig {
     c
 }
 
+/// The cart-pole batch seen in pairs: each odd env observes the mirror image of the env before it (its current and
+/// its terminal observation alike); `with_mirror`: the view gives the push's mirror.
 fn paired_trainer(cfg: &TrainConfig, with_mirror: bool) -> Result<(Trainer, Applied)> {
     let inner = cartpole_trainer(cfg, false).env;
-    let applied = Arc::new(Mutex::new(Vec::new()));
-    let mut env = MirrorPairs {
-        sym: inner.symmetry().unwrap(),
-        inner,
-        with_mirror,
-        obs: vec![],
-        terminal: vec![],
-        applied: applied.clone(),
+    let sym = inner.symmetry().unwrap();
+    let d = sym.obs.len();
+    let map = sym.obs.clone();
+    let paired = move |src: &[f32]| -> Vec<f32> {
+        let mut out = src.to_vec();
+        for pair in out.chunks_exact_mut(2 * d) {
+            let (even, odd) = pair.split_at_mut(d);
+            map.apply(even, odd);
+        }
+        out
     };
-    env.refresh();
+    let mut env = ObsView::new(inner, d, Box::new(paired));
+    env.symmetry = Some(sym);
+    env.channels = env.inner().perturbation_channels();
+    env.perturbation_mirror = env.inner().perturbation_mirror().filter(|_| with_mirror);
+    let applied = env.applied.clone();
     Ok((Trainer::new(cfg.clone(), Box::new(env), true)?, applied))
 }
 

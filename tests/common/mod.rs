@@ -2,6 +2,8 @@
 // Each test binary uses its own part of these helpers.
 #![allow(dead_code)]
 
+pub mod view;
+
 use topa_env::tasks::{cartpole, CartPole};
 use topa_env::{BatchEnv, EnvConfig, TaskKind};
 use trainer::config::TrainConfig;
