@@ -27,6 +27,20 @@ pub struct Adversary {
     pub mirror: Option<adversary::AttackMirror>,
 }
 
+impl Adversary {
+    /// What the adversary observes of these observation rows (row `i` is env `env_of_row(i)`'s): the rows
+    /// themselves, or, with mirrored attacks, `buf` holding them with the mirrored envs' rows mirrored.
+    fn sees<'a>(&self, rows: &'a [f32], buf: &'a mut Vec<f32>, env_of_row: impl Fn(usize) -> usize) -> &'a [f32] {
+        match &self.mirror {
+            Some(m) => {
+                m.view(rows, buf, env_of_row);
+                buf
+            }
+            None => rows,
+        }
+    }
+}
+
 impl IterationLog {
     /// This iteration's wall time (collection and update), s.
     pub fn wall_time_delta(&self) -> f64 {
@@ -336,13 +350,7 @@ impl Trainer {
             // The adversary perturbs (phases 2 and 3): sampling while it learns; in phase 3 as configured.
             if adversary_acts {
                 let a = self.adversary.as_mut().expect("adversary");
-                let adv_obs = match &a.mirror {
-                    Some(m) => {
-                        m.view(&s.raw_obs, &mut s.adv_raw_obs, |e| e);
-                        &s.adv_raw_obs
-                    }
-                    None => &s.raw_obs,
-                };
+                let adv_obs = a.sees(&s.raw_obs, &mut s.adv_raw_obs, |e| e);
                 if phase == Phase::Adversary {
                     let r = self.adversary_rollout.as_mut().expect("adversary rollout");
                     let k = r.next_step();
@@ -392,13 +400,7 @@ impl Trainer {
             self.policy_rollout.compute_returns(&last, gamma, self.cfg.ppo.gae_lambda);
         } else if let (Some(a), Some(r)) = (&mut self.adversary, &mut self.adversary_rollout) {
             let mut view = Vec::new();
-            let adv_obs = match &a.mirror {
-                Some(m) => {
-                    m.view(&final_obs, &mut view, |e| e);
-                    &view
-                }
-                None => &final_obs,
-            };
+            let adv_obs = a.sees(&final_obs, &mut view, |e| e);
             a.agent.values(adv_obs, &mut last);
             r.compute_returns(&last, gamma, self.cfg.ppo.gae_lambda);
         }
@@ -417,14 +419,11 @@ impl Trainer {
             let rows: Vec<f32> = timed_out.iter().flat_map(|&e| term[e * od..(e + 1) * od].iter().copied()).collect();
             let mut v = vec![0.0f32; timed_out.len()];
             match (phase, &mut self.adversary) {
-                (Phase::Adversary, Some(a)) => match &a.mirror {
-                    Some(m) => {
-                        let mut view = Vec::new();
-                        m.view(&rows, &mut view, |i| timed_out[i]);
-                        a.agent.values(&view, &mut v)
-                    }
-                    None => a.agent.values(&rows, &mut v),
-                },
+                (Phase::Adversary, Some(a)) => {
+                    let mut view = Vec::new();
+                    let adv_rows = a.sees(&rows, &mut view, |i| timed_out[i]);
+                    a.agent.values(adv_rows, &mut v)
+                }
                 _ => self.policy.values(&rows, &mut v),
             }
             for (&e, &val) in timed_out.iter().zip(&v) {
