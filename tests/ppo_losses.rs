@@ -21,6 +21,7 @@ fn batch(seed: u64, rows: usize) -> Batch {
     let mut v = |n: usize, s: f32| -> Vec<f32> { (0..n).map(|_| rng.random_range(-s..s)).collect() };
     Batch {
         rows,
+        mirrored: false,
         obs: v(rows * 42, 1.0),
         actions: v(rows * 10, 1.0),
         means: v(rows * 10, 0.5),
@@ -55,7 +56,7 @@ fn nudge(var: &Var, i: usize, delta: f32) {
 
 #[test]
 fn every_loss_term_has_the_gradient_finite_differences_give() {
-    let losses = LossConfig { symmetry_coef: 0.7, decay_coef: 0.05 };
+    let losses = LossConfig { symmetry_coef: 0.7, decay_coef: 0.05, symmetry_augmentation: false };
     let a = agent(1, true, losses);
     let b = batch(2, 24);
     let names = ["surrogate", "value", "entropy", "symmetry", "decay"];
@@ -91,7 +92,7 @@ fn every_loss_term_has_the_gradient_finite_differences_give() {
 
 #[test]
 fn decay_touches_only_the_actors_last_layer() {
-    let a = agent(3, false, LossConfig { symmetry_coef: 0.0, decay_coef: 1.0 });
+    let a = agent(3, false, LossConfig { symmetry_coef: 0.0, decay_coef: 1.0, symmetry_augmentation: false });
     let b = batch(4, 8);
     let (decay, value) = term(&a, &b, 4);
     let last = a.ac.actor.last_layer();
@@ -161,7 +162,7 @@ fn symmetry_loss_is_zero_for_an_equivariant_policy_and_positive_otherwise() {
     let a = Agent::new(
         ac,
         PpoConfig::default(),
-        LossConfig { symmetry_coef: 1.0, decay_coef: 0.0 },
+        LossConfig { symmetry_coef: 1.0, decay_coef: 0.0, symmetry_augmentation: false },
         Some(topa_env::topa::symmetry()),
     );
     let b = batch(6, 32);
@@ -170,6 +171,38 @@ fn symmetry_loss_is_zero_for_an_equivariant_policy_and_positive_otherwise() {
     make_equivariant(&a, &mut rng);
     let equivariant = term(&a, &b, 3).1;
     assert!(equivariant < 1e-10, "an equivariant network has zero symmetry loss, got {equivariant}");
+}
+
+/// Symmetry by data: a mirrored batch is the batch and its mirror image; its L_symmetry is the paper's on the
+/// sampled rows; and for an equivariant policy the mirror images carry the same surrogate as the samples, while
+/// for a random one they do not (which is what they teach).
+#[test]
+fn a_mirrored_batch_is_the_batch_and_its_mirror_image() {
+    let losses = LossConfig { symmetry_coef: 1.0, decay_coef: 0.0, symmetry_augmentation: true };
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    let a = Agent::new(
+        ActorCritic::new(42, 10, &[16], &[16], 0.7, &mut rng).unwrap(),
+        PpoConfig::default(),
+        losses,
+        Some(topa_env::topa::symmetry()),
+    );
+    let sym = a.symmetry.clone().unwrap();
+    let b = batch(9, 24);
+    let mut m = b.clone();
+    m.append_mirror(&sym);
+    assert_eq!((m.rows, m.sampled_rows(), b.sampled_rows()), (48, 24, 24));
+    let mut back = vec![0.0; 24 * 42];
+    sym.obs.apply_rows(&m.obs[24 * 42..], &mut back);
+    assert_eq!(back, b.obs, "the second half's observations mirror back to the samples");
+    sym.act.apply_rows(&m.actions[24 * 10..], &mut back[..240]);
+    assert_eq!(back[..240], b.actions[..]);
+    assert_eq!((&m.advantages[24..], &m.log_probs[24..]), (&b.advantages[..], &b.log_probs[..]));
+    let (paper, halves) = (term(&a, &b, 3).1, term(&a, &m, 3).1);
+    assert!(paper > 1e-3 && (paper - halves).abs() < 1e-6 * paper.max(1.0), "L_symmetry {paper} vs {halves}");
+    let gap = |a: &Agent| (term(a, &m, 0).1 - term(a, &b, 0).1).abs();
+    assert!(gap(&a) > 1e-3, "a random policy's mirror images are new data: surrogate gap {}", gap(&a));
+    make_equivariant(&a, &mut rng);
+    assert!(gap(&a) < 1e-5, "an equivariant policy's are not: surrogate gap {}", gap(&a));
 }
 
 #[test]

@@ -176,11 +176,15 @@ pub struct LossConfig {
     pub symmetry_coef: f64,
     /// λ of L_decay = λ‖θ_last‖² on the actor's output layer (weights and bias).
     pub decay_coef: f64,
+    /// Symmetry by data: each PPO minibatch is learned from together with its mirror image (S_o(o), S_a(a), the
+    /// same advantage, return and old log-probability), as rsl_rl's `use_data_augmentation`; L_symmetry is then
+    /// taken on the two halves. Not in the paper (off): it doubles the update's batch.
+    pub symmetry_augmentation: bool,
 }
 
 impl Default for LossConfig {
     fn default() -> Self {
-        LossConfig { symmetry_coef: 1.0, decay_coef: 1e-3 }
+        LossConfig { symmetry_coef: 1.0, decay_coef: 1e-3, symmetry_augmentation: false }
     }
 }
 

@@ -124,7 +124,8 @@ impl Agent {
         let (od, ad) = (r.obs_dim, r.act_dim);
         let mut stats = UpdateStats::default();
         let mut idx: Vec<usize> = (0..n).collect();
-        let mut buf = Batch::with_capacity(mb, od, ad);
+        let augment = self.symmetry.clone().filter(|_| self.losses.symmetry_augmentation);
+        let mut buf = Batch::with_capacity(if augment.is_some() { 2 * mb } else { mb }, od, ad);
         for _ in 0..self.ppo.epochs {
             // Fisher–Yates with our stream, so the minibatches are part of the seeded run.
             for i in (1..n).rev() {
@@ -132,6 +133,9 @@ impl Agent {
             }
             for k in 0..self.ppo.minibatches {
                 buf.gather(r, &idx[k * mb..(k + 1) * mb]);
+                if let Some(sym) = &augment {
+                    buf.append_mirror(sym);
+                }
                 self.minibatch_step(&buf, &r.std, &mut stats)?;
             }
         }
@@ -178,7 +182,8 @@ impl Agent {
         // Adaptive learning rate from the KL between the rollout policy and the current one (rsl_rl's rule).
         let new_mean = mean.flatten_all()?.to_vec1::<f32>()?;
         let new_std = self.ac.log_std.as_tensor().exp()?.to_vec1::<f32>()?;
-        let kl = actor_critic::mean_kl(&b.means, old_std, &new_mean, &new_std);
+        // On the rollout's own rows: their mirror images were never acted on.
+        let kl = actor_critic::mean_kl(&b.means[..b.sampled_rows() * self.ac.act_dim], old_std, &new_mean, &new_std);
         stats.minibatches += 1;
         let finite = actor_grads.is_some() && critic_grads.is_some();
         // All ranks take the same step: the mean gradient, the mean KL, and a skip if any rank's loss failed
@@ -285,7 +290,16 @@ fn actor_terms(
     let entropy = actor_critic::entropy_tensor(log_std)?;
     let mut total = (&surrogate - (&entropy * ppo.entropy_coef)?)?;
     let symmetry = match (sym, losses.symmetry_coef > 0.0) {
-        (Some(sym), true) => Some((symmetry_loss(ac, sym, &b.obs, mean, rows)? * losses.symmetry_coef)?),
+        (Some(sym), true) => {
+            let l = if b.mirrored {
+                // π(S_o(o)) is already the second half of `mean`.
+                let n = rows / 2;
+                mirror_actions(sym, &mean.narrow(0, 0, n)?)?.sub(&mean.narrow(0, n, n)?)?.sqr()?.mean_all()?
+            } else {
+                symmetry_loss(ac, sym, &b.obs, mean, rows)?
+            };
+            Some((l * losses.symmetry_coef)?)
+        }
         _ => None,
     };
     if let Some(s) = &symmetry {
@@ -377,6 +391,8 @@ pub fn decay_loss(ac: &ActorCritic) -> Result<Tensor> {
 #[derive(Debug, Clone, Default)]
 pub struct Batch {
     pub rows: usize,
+    /// The second half of the rows is the mirror image of the first (`losses.symmetry_augmentation`).
+    pub mirrored: bool,
     pub obs: Vec<f32>,
     pub actions: Vec<f32>,
     pub means: Vec<f32>,
@@ -390,6 +406,7 @@ impl Batch {
     pub fn with_capacity(rows: usize, od: usize, ad: usize) -> Self {
         Batch {
             rows,
+            mirrored: false,
             obs: Vec::with_capacity(rows * od),
             actions: Vec::with_capacity(rows * ad),
             means: Vec::with_capacity(rows * ad),
@@ -404,6 +421,7 @@ impl Batch {
     pub fn gather(&mut self, r: &Rollout, idx: &[usize]) {
         let (od, ad) = (r.obs_dim, r.act_dim);
         self.rows = idx.len();
+        self.mirrored = false;
         for v in [
             &mut self.obs,
             &mut self.actions,
@@ -423,6 +441,34 @@ impl Batch {
             self.values.push(r.values[i]);
             self.returns.push(r.returns[i]);
             self.advantages.push(r.advantages[i]);
+        }
+    }
+
+    /// Appends the mirror image of every row: S_o(o) (the normaliser is symmetric, so normalised observations
+    /// mirror directly), S_a(a) and S_a(μ_old), the same old log-probability, value, return and advantage — what the
+    /// mirrored robot would have seen, done and earned, valid as far as the rollout policy was symmetric.
+    pub fn append_mirror(&mut self, sym: &Symmetry) {
+        assert!(!self.mirrored, "a batch is mirrored once");
+        let n = self.rows;
+        for (v, map) in [(&mut self.obs, &sym.obs), (&mut self.actions, &sym.act), (&mut self.means, &sym.act)] {
+            let len = v.len();
+            v.resize(2 * len, 0.0);
+            let (orig, mirror) = v.split_at_mut(len);
+            map.apply_rows(orig, mirror);
+        }
+        for v in [&mut self.log_probs, &mut self.values, &mut self.returns, &mut self.advantages] {
+            v.extend_from_within(..n);
+        }
+        self.rows = 2 * n;
+        self.mirrored = true;
+    }
+
+    /// The rows that came from the rollout (the first half of a mirrored batch).
+    pub fn sampled_rows(&self) -> usize {
+        if self.mirrored {
+            self.rows / 2
+        } else {
+            self.rows
         }
     }
 }
@@ -445,12 +491,13 @@ mod tests {
         let mut act_map = SignedPermutation::identity(ad);
         act_map.set_block(2, &[1, 0], &[-1.0, 1.0]);
         let sym = Symmetry { obs: obs_map, act: act_map };
-        let losses = LossConfig { symmetry_coef: 0.7, decay_coef: 0.05 };
+        let losses = LossConfig { symmetry_coef: 0.7, decay_coef: 0.05, symmetry_augmentation: false };
         let ppo = PpoConfig { value_loss_coef: 0.8, entropy_coef: 0.01, ..PpoConfig::default() };
         let agent = Agent::new(ac, ppo, losses, Some(sym));
         let mut v = |n: usize, s: f32| -> Vec<f32> { (0..n).map(|_| rng.random_range(-s..s)).collect() };
         let b = Batch {
             rows,
+            mirrored: false,
             obs: v(rows * od, 1.0),
             actions: v(rows * ad, 1.0),
             means: v(rows * ad, 0.5),

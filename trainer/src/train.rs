@@ -127,6 +127,11 @@ impl Trainer {
         let (n, od, ad) = (env.num_envs(), env.obs_dim(), env.action_dim());
         let net = &cfg.network;
         let ac = ActorCritic::new(od, ad, &net.actor_hidden, &net.critic_hidden, net.init_noise_std, &mut rng)?;
+        anyhow::ensure!(
+            !cfg.losses.symmetry_augmentation || env.symmetry().is_some(),
+            "losses.symmetry_augmentation needs a task with a left↔right mirror of its observations and actions, \
+             and this one has none: set it to false"
+        );
         let policy = Agent::new(ac, cfg.ppo.clone(), cfg.losses.clone(), env.symmetry());
         let (adversary, schedule) = if with_adversary {
             let channels = env.perturbation_channels();
@@ -138,7 +143,7 @@ impl Trainer {
             ppo.learning_rate = a.learning_rate;
             ppo.entropy_coef = a.entropy_coef;
             // No symmetry or decay for the adversary: the paper applies them to the locomotion policy.
-            let losses = LossConfig { symmetry_coef: 0.0, decay_coef: 0.0 };
+            let losses = LossConfig { symmetry_coef: 0.0, decay_coef: 0.0, symmetry_augmentation: false };
             let agent = Agent::new(ac, ppo, losses, None);
             let sched = a.schedule();
             let bounds = adversary::bounds(&channels);
