@@ -294,7 +294,7 @@ fn actor_terms(
             let l = if b.mirrored {
                 // π(S_o(o)) is already the second half of `mean`.
                 let n = rows / 2;
-                mirror_actions(sym, &mean.narrow(0, 0, n)?)?.sub(&mean.narrow(0, n, n)?)?.sqr()?.mean_all()?
+                mirror_mse(sym, &mean.narrow(0, 0, n)?, &mean.narrow(0, n, n)?)?
             } else {
                 symmetry_loss(ac, sym, &b.obs, mean, rows)?
             };
@@ -370,7 +370,12 @@ pub fn symmetry_loss(ac: &ActorCritic, sym: &Symmetry, obs: &[f32], mean: &Tenso
     let mut mirrored = vec![0.0f32; obs.len()];
     sym.obs.apply_rows(obs, &mut mirrored);
     let mean_of_mirror = ac.actor.forward(&Tensor::from_vec(mirrored, (rows, ac.obs_dim), &Device::Cpu)?)?;
-    mirror_actions(sym, mean)?.sub(&mean_of_mirror)?.sqr()?.mean_all()
+    mirror_mse(sym, mean, &mean_of_mirror)
+}
+
+/// MSE(S_a(π(o)), π(S_o(o))) from the two action means.
+fn mirror_mse(sym: &Symmetry, mean: &Tensor, mean_of_mirror: &Tensor) -> Result<Tensor> {
+    mirror_actions(sym, mean)?.sub(mean_of_mirror)?.sqr()?.mean_all()
 }
 
 /// S_a applied to a [rows, act_dim] tensor (a signed column permutation).

@@ -127,12 +127,13 @@ impl Trainer {
         let (n, od, ad) = (env.num_envs(), env.obs_dim(), env.action_dim());
         let net = &cfg.network;
         let ac = ActorCritic::new(od, ad, &net.actor_hidden, &net.critic_hidden, net.init_noise_std, &mut rng)?;
+        let symmetry = env.symmetry();
         anyhow::ensure!(
-            !cfg.losses.symmetry_augmentation || env.symmetry().is_some(),
+            !cfg.losses.symmetry_augmentation || symmetry.is_some(),
             "losses.symmetry_augmentation needs a task with a left↔right mirror of its observations and actions, \
              and this one has none: set it to false"
         );
-        let policy = Agent::new(ac, cfg.ppo.clone(), cfg.losses.clone(), env.symmetry());
+        let policy = Agent::new(ac, cfg.ppo.clone(), cfg.losses.clone(), symmetry.clone());
         let (adversary, schedule) = if with_adversary {
             let channels = env.perturbation_channels();
             let pd = perturbation_dim(&channels);
@@ -148,7 +149,7 @@ impl Trainer {
             let sched = a.schedule();
             let bounds = adversary::bounds(&channels);
             let mirror = if a.mirror_attacks {
-                let (Some(sym), Some(pm)) = (env.symmetry(), env.perturbation_mirror()) else {
+                let (Some(sym), Some(pm)) = (symmetry, env.perturbation_mirror()) else {
                     anyhow::bail!(
                         "adversary.mirror_attacks needs a task with a left↔right mirror of its observations and \
                          perturbations, and this one has none: set it to false"
