@@ -91,6 +91,38 @@ fn phase_three_trains_the_policy_with_its_own_entropy_bonus() {
 }
 
 #[test]
+fn phase_three_learns_from_mirrored_data_when_asked() {
+    // Iteration 0 is phase 1, iteration 1 phase 2, iterations 2 and 3 phase 3.
+    let with = |everywhere: bool, phase3: bool| {
+        let mut c = config(7, 1, 1, 2, 1);
+        (c.losses.symmetry_augmentation, c.adversary.policy_symmetry_augmentation) = (everywhere, phase3);
+        c
+    };
+    let plain = policy_after_each_iteration(&with(false, false));
+    let phase3 = policy_after_each_iteration(&with(false, true));
+    assert!(phase3[..2] == plain[..2], "phases 1 and 2 learn as without mirrored data (a forked C stays the C)");
+    assert!(phase3[2] != plain[2], "phase 3 learns from the mirrored minibatches");
+    let everywhere = policy_after_each_iteration(&with(true, false));
+    assert!(everywhere[0] != plain[0], "losses.symmetry_augmentation acts from phase 1 on");
+    assert!(policy_after_each_iteration(&with(true, true)) == everywhere, "both keys on: phase 3 augmented once");
+}
+
+#[test]
+fn mirrored_data_in_phase_three_needs_the_tasks_mirror() {
+    let mut c = config(7, 1, 1, 1, 1);
+    c.adversary.policy_symmetry_augmentation = true;
+    let no_mirror = || {
+        let inner = cartpole_trainer(&c, false).env;
+        let mut v = common::view::ObsView::new(inner, 4, Box::new(|o: &[f32]| o.to_vec()));
+        v.channels = v.inner().perturbation_channels();
+        Box::new(v)
+    };
+    let err = Trainer::new(c.clone(), no_mirror(), true).err().expect("refused").to_string();
+    assert!(err.contains("adversary.policy_symmetry_augmentation") && err.contains("set it to false"), "{err}");
+    assert!(Trainer::new(c.clone(), no_mirror(), false).is_ok(), "a run without the adversary has no phase 3");
+}
+
+#[test]
 fn the_adversary_learns_to_topple_a_fixed_policy() {
     // Phase 1 learns to balance; phase 2 trains the adversary against the frozen balancer.
     let mut t = trainer(&config(2, 20, 30, 0, 1));

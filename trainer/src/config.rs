@@ -223,6 +223,10 @@ pub struct AdversaryConfig {
     /// its observation and the env gets the mirror image of its perturbation (ours), so the attacks a policy
     /// meets are left↔right symmetric while the adversary keeps one consistent view of the world.
     pub mirror_attacks: bool,
+    /// Symmetry by data (as `losses.symmetry_augmentation`) in phase 3 only, where the policy learns under
+    /// attack (ours): the attacks let the policy's left↔right asymmetry through (its turns in place failed one
+    /// way), and a C+A forked from a C keeps the C's arithmetic. Either key on augments phase 3.
+    pub policy_symmetry_augmentation: bool,
 }
 
 impl AdversaryConfig {
@@ -252,6 +256,7 @@ impl Default for AdversaryConfig {
             attack_share: 1.0,
             policy_entropy_coef: 0.01,
             mirror_attacks: false,
+            policy_symmetry_augmentation: false,
         }
     }
 }

@@ -128,11 +128,16 @@ impl Trainer {
         let net = &cfg.network;
         let ac = ActorCritic::new(od, ad, &net.actor_hidden, &net.critic_hidden, net.init_noise_std, &mut rng)?;
         let symmetry = env.symmetry();
-        anyhow::ensure!(
-            !cfg.losses.symmetry_augmentation || symmetry.is_some(),
-            "losses.symmetry_augmentation needs a task with a left↔right mirror of its observations and actions, \
-             and this one has none: set it to false"
-        );
+        for (key, on) in [
+            ("losses.symmetry_augmentation", cfg.losses.symmetry_augmentation),
+            ("adversary.policy_symmetry_augmentation", with_adversary && cfg.adversary.policy_symmetry_augmentation),
+        ] {
+            anyhow::ensure!(
+                !on || symmetry.is_some(),
+                "{key} needs a task with a left↔right mirror of its observations and actions, and this one has \
+                 none: set it to false"
+            );
+        }
         let policy = Agent::new(ac, cfg.ppo.clone(), cfg.losses.clone(), symmetry.clone());
         let (adversary, schedule) = if with_adversary {
             let channels = env.perturbation_channels();
@@ -235,6 +240,8 @@ impl Trainer {
                 Phase::PolicyUnderAttack => self.cfg.adversary.policy_entropy_coef,
                 _ => self.cfg.ppo.entropy_coef_at(self.iteration),
             };
+            self.policy.losses.symmetry_augmentation = self.cfg.losses.symmetry_augmentation
+                || (pos.phase == Phase::PolicyUnderAttack && self.cfg.adversary.policy_symmetry_augmentation);
             let (policy, rollout, rng) = (&mut self.policy, &self.policy_rollout, &mut self.rng);
             policy_stats = Some(on_worker_if(solo, || policy.update(rollout, rng))?);
         } else if let (Some(a), Some(r)) = (&mut self.adversary, &self.adversary_rollout) {
