@@ -23,8 +23,8 @@ pub(crate) fn own_kernel() -> bool {
     *OWN.get_or_init(|| kernels::has_avx2_fma() && std::env::var("NN_GEMM").map_or(true, |v| v != "crate"))
 }
 
-/// Whether products of [`own_kernel`] take the AVX-512 kernel for pairs of panels: when the CPU has AVX-512F,
-/// unless `NN_GEMM=avx2` (or `crate`) asks otherwise (read once). Both kernels give bit-identical results.
+/// Whether products of [`own_kernel`] take the AVX-512 kernel (pairs of panels, 12-row tiles): when the CPU has
+/// AVX-512F, unless `NN_GEMM=avx2` (or `crate`) asks otherwise (read once). Both kernels give bit-identical results.
 pub(crate) fn wide_kernel() -> bool {
     #[cfg(test)]
     if tests::FORCE_AVX2.with(|f| f.get()) {
@@ -497,20 +497,36 @@ mod avx2 {
                         let bias16: &[f32; NR] = bias32[..NR].try_into().expect("NR floats");
                         let tile_epi = act.map_or(TileEpi::None, |act| TileEpi::BiasAct(bias16, act));
                         let bpanel = bpk.add(jp * kc * NR);
-                        for ip in 0..mc.div_ceil(MR) {
-                            let mr = MR.min(mc - ip * MR);
-                            let cp = c.add((ic + ip * MR) * ldc + jp * NR);
-                            let (arow, ars, acs) = if direct {
+                        // Row panel `ip`'s first row of `A`, its row and column strides.
+                        let arow = |ip: usize| -> (*const f32, isize, isize) {
+                            if direct {
                                 (ablk.rows_from(ip * MR).ptr, a.rs, 1)
                             } else {
                                 (ap.add(ip * kc * MR) as *const f32, 1, MR as isize)
-                            };
+                            }
+                        };
+                        let mut ip = 0;
+                        while ip < mc.div_ceil(MR) {
+                            let mr = MR.min(mc - ip * MR);
+                            let cp = c.add((ic + ip * MR) * ldc + jp * NR);
+                            let (lo, ars, acs) = arow(ip);
                             if pair {
-                                let b1 = bpanel.add(kc * NR);
-                                let e = act.map(|act| (&bias32, act));
-                                avx512::kernel(kc, arow, ars, acs, bpanel, b1, cp, ldc, mr, nr, acc, e);
+                                // Two whole row panels take the 12-row tile, the rest the 6-row one.
+                                let tall = mc - ip * MR >= avx512::MR2;
+                                let hi = if tall { arow(ip + 1).0 } else { lo };
+                                let t = avx512::ATile { lo, hi, rs: ars, cs: acs };
+                                let (b1, e) = (bpanel.add(kc * NR), act.map(|act| (&bias32, act)));
+                                if tall {
+                                    let mr = avx512::MR2;
+                                    avx512::kernel::<{ avx512::MR2 }>(kc, t, bpanel, b1, cp, ldc, mr, nr, acc, e);
+                                    ip += 2;
+                                } else {
+                                    avx512::kernel::<MR>(kc, t, bpanel, b1, cp, ldc, mr, nr, acc, e);
+                                    ip += 1;
+                                }
                             } else {
-                                kernel(kc, arow, ars, acs, bpanel, cp, ldc, mr, nr, acc, tile_epi);
+                                kernel(kc, lo, ars, acs, bpanel, cp, ldc, mr, nr, acc, tile_epi);
+                                ip += 1;
                             }
                         }
                         jp += if pair { 2 } else { 1 };

@@ -260,7 +260,7 @@ impl candle_core::Module for Mlp {
     }
 }
 
-/// The matrix-product kernel this process uses: `"AVX-512"` (6×32 tiles), `"AVX2"` (6×16 tiles) or `"gemm crate"`
+/// The matrix-product kernel this process uses: `"AVX-512"` (12×32 tiles), `"AVX2"` (6×16 tiles) or `"gemm crate"`
 /// (CPUs without AVX2/FMA). `NN_GEMM=avx2` or `NN_GEMM=crate` in the environment picks a narrower one, for A/B
 /// timing; the AVX-512 and AVX2 kernels give bit-identical results.
 pub fn gemm_kernel() -> &'static str {
