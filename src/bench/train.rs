@@ -7,6 +7,10 @@
 //! the workers actually spent inside `mj_step` (÷ threads): the same states, contacts and solver work as the
 //! rollout, so its ratio is exactly the share of collection that is physics.
 //!
+//! The time to the preset's end takes each phase of the adversary's schedule at its own iteration time: phase 2
+//! (the adversary's update) and phase 3 (the policy's, with the adversary acting and, in the current preset, each
+//! minibatch mirrored) are timed on a trainer with the adversary moved to that phase.
+//!
 //! Thread counts are fixed once per process, so each count runs in a child process (`--worker`).
 
 use std::process::Command;
@@ -38,6 +42,29 @@ pub struct WorkerResult {
     /// Bare mj_step/s on one thread (stand pose), measured in this worker before training.
     pub standing_steps_per_s: f64,
     pub decimation: usize,
+    /// Mean iteration time in the adversary's phases, s: phase 2 (the adversary learns) and phase 3 (the policy
+    /// learns under attack), each timed on a trainer with the adversary moved to that phase.
+    #[serde(default)]
+    pub adversary_phase_s: f64,
+    #[serde(default)]
+    pub attacked_phase_s: f64,
+}
+
+/// Mean seconds of `iterations` iterations of the phase that starts at iteration `first` of the adversary's
+/// schedule, after `warmup` untimed ones (all inside the phase, which `len` iterations long).
+fn time_phase(cfg: &trainer::TrainConfig, first: usize, len: usize, warmup: usize, iterations: usize) -> Result<f64> {
+    let mut t = Trainer::new(cfg.clone(), crate::train_cmd::task_env(cfg)?, true)?;
+    t.iteration = first;
+    let warmup = warmup.min(len.saturating_sub(iterations.max(1)));
+    let timed = iterations.min(len - warmup).max(1);
+    for _ in 0..warmup {
+        t.iterate()?.context("warm-up iteration")?;
+    }
+    let start = Instant::now();
+    for _ in 0..timed {
+        t.iterate()?.context("iteration")?;
+    }
+    Ok(start.elapsed().as_secs_f64() / timed as f64)
 }
 
 pub struct Args<'a> {
@@ -91,6 +118,13 @@ pub fn worker(a: &Args, threads: usize) -> Result<WorkerResult> {
         r.physics_cpu_s += e.physics_s;
         r.reset_cpu_s += e.reset_s;
         r.episodes += (log.episodes.episodes + log.episodes.diverged) as f64;
+    }
+    let ad = &cfg.adversary;
+    let attackable = !t.env.perturbation_channels().is_empty();
+    if attackable && ad.phase2_adversary_iters > 0 && ad.phase3_policy_iters > 0 && ad.cycles > 0 {
+        let (p1, p2) = (ad.phase1_policy_iters, ad.phase2_adversary_iters);
+        r.adversary_phase_s = time_phase(&cfg, p1, p2, a.warmup, a.iterations)?;
+        r.attacked_phase_s = time_phase(&cfg, p1 + p2, ad.phase3_policy_iters, a.warmup, a.iterations)?;
     }
     let k = a.iterations.max(1) as f64;
     for v in [
@@ -172,20 +206,32 @@ pub fn run(a: &Args) -> Result<()> {
             r.update_s
         );
     }
-    // What a user waits for: the preset's runs at the measured iteration time (adversary iterations are taken
-    // at the policy iteration's cost: both collect the same rollout and update a network of the same size).
+    // What a user waits for: the preset's runs at the measured iteration times, each phase of the adversary's
+    // schedule at its own (phase 2 updates the adversary, phase 3 the policy with the adversary acting).
     let ad = &cfg.adversary;
     let pipeline = ad.schedule().total();
-    println!("\ntime to the preset's end at these rates (h:mm):\n");
-    println!("| threads | plain run ({} its) | C+A pipeline: its C, then C+A ({pipeline} its) |", cfg.run.iterations);
-    println!("|---:|---:|---:|");
+    println!("\ntime to the preset's end at these rates (h:mm), and an iteration of each phase of C+A (s):\n");
+    println!(
+        "| threads | plain run ({} its) | C+A pipeline: its C, then C+A ({pipeline} its) | phase 1 / 2 / 3 iteration (s) |",
+        cfg.run.iterations
+    );
+    println!("|---:|---:|---:|---|");
     for r in &results {
-        println!(
-            "| {} | {} | {} |",
-            r.threads,
-            hours_minutes(cfg.run.iterations as f64 * r.iteration_s),
-            hours_minutes(pipeline as f64 * r.iteration_s)
-        );
+        let cycles = ad.cycles as f64
+            * (ad.phase2_adversary_iters as f64 * r.adversary_phase_s
+                + ad.phase3_policy_iters as f64 * r.attacked_phase_s);
+        // No adversary phases timed: the task takes no perturbations, or the schedule has no cycles.
+        let (pipeline, phases) = if r.attacked_phase_s > 0.0 {
+            let all = ad.phase1_policy_iters as f64 * r.iteration_s + cycles;
+            (
+                hours_minutes(all),
+                format!("{:.3} / {:.3} / {:.3}", r.iteration_s, r.adversary_phase_s, r.attacked_phase_s),
+            )
+        } else {
+            ("–".into(), format!("{:.3} / – / –", r.iteration_s))
+        };
+        let plain = hours_minutes(cfg.run.iterations as f64 * r.iteration_s);
+        println!("| {} | {plain} | {pipeline} | {phases} |", r.threads);
     }
     println!(
         "\nworkers' CPU in env steps, per iteration: physics / resets / the rest (s), and the bounds (env-steps/s):\n"
