@@ -3,8 +3,8 @@
 //! threads). Prints each ratio to the bound (goal ≥ 0.9) and the 2-thread speed-up.
 
 use anyhow::Result;
-use topa::bench::env::{env_steps_per_second, physics_steps_per_second};
 use topa_env::{EnvConfig, IntegratorChoice, ModelKind};
+use topa_tools::bench::env::{env_steps_per_second, physics_steps_per_second};
 
 fn main() -> Result<()> {
     let mut cfg = EnvConfig { robot: ModelKind::Closed.spec_path().into(), ..EnvConfig::default() };

@@ -1,19 +1,27 @@
-//! `topa`: the TopA closed-chain biped toolkit — model info, benchmarks, training and sim2sim evaluation. The
-//! command line is defined in `topa::cli`; this file runs it.
+//! `topa`: the TopA closed-chain biped toolkit — model info, benchmarks, training and sim2sim evaluation. This
+//! crate is the command line only (the clap tree and its dispatch); the work lives in the library crates.
+
+mod cli;
+mod eval_cmd;
+mod groups_cmd;
+mod sysid_cmd;
+mod train_cmd;
 
 use std::process::ExitCode;
 
 use clap::Parser;
 
-use topa::cli::{BenchCmd, Cli, Cmd, ConfigCmd};
-use topa::eval::ablate::Extent;
-use topa::{bench, config_reference, eval_cmd, groups_cmd, info, play, resolve_threads, train_cmd};
+use cli::{BenchCmd, Cli, Cmd, ConfigCmd};
+use topa_eval::ablate::Extent;
+use topa_eval::play;
+use topa_tools::{bench, config_reference, info};
+use trainer::nn::resolve_threads;
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Cmd::Info { model, json } => {
             if model.extension().is_some_and(|e| e == "toml") {
-                topa::robot_info::run(&model, json)
+                topa_tools::robot_info::run(&model, json)
             } else {
                 info::run(&model, json)
             }
@@ -35,20 +43,20 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             groups_cmd::run_ablate(groups, extent, [field.as_deref(), terrain.as_deref()], common)
         }
         Cmd::Terrain { merge, common, .. } if !merge.is_empty() => {
-            groups_cmd::report_terrain(&topa::eval::terrain_report::merge(&merge)?, &common)
+            groups_cmd::report_terrain(&topa_eval::terrain_report::merge(&merge)?, &common)
         }
         Cmd::Terrain { groups, protocol, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let policies = groups.policies()?;
             let p = protocol.protocol();
-            let r = topa::eval::terrain_report::run(&policies, &common.settings()?, &p)?;
+            let r = topa_eval::terrain_report::run(&policies, &common.settings()?, &p)?;
             groups_cmd::report_terrain(&r, &common)
         }
-        Cmd::Sysid(cmd) => topa::sysid_cmd::run(cmd),
+        Cmd::Sysid(cmd) => sysid_cmd::run(cmd),
         Cmd::Field { merge, common, .. } if !merge.is_empty() => groups_cmd::merge_field(&merge, common),
         Cmd::Field { groups, course, speeds, minutes, modes, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
-            let extent = topa::eval::field::FieldExtent {
+            let extent = topa_eval::field::FieldExtent {
                 course,
                 speeds,
                 endurance_minutes: minutes,
@@ -57,26 +65,26 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             groups_cmd::run_field(groups, extent, common)
         }
-        Cmd::Docs { pages, check } => topa::doc_blocks::run(&pages, check),
+        Cmd::Docs { pages, check } => topa_eval::doc_blocks::run(&pages, check),
         Cmd::Plot { runs, group, out } => {
             if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir)?;
             }
-            let layout = topa::dashboard::plot(&runs, &group, &out)?;
+            let layout = topa_train::dashboard::plot(&runs, &group, &out)?;
             println!("{} panels → {} (and {})", layout.len(), out.display(), out.with_extension("svg").display());
             Ok(())
         }
         Cmd::Export { policy, onnx, motor_targets, check } => {
             if check {
-                topa::export::check(&onnx, &policy)?;
+                topa_tools::export::check(&onnx, &policy)?;
                 println!("{} was exported from {}", onnx.display(), policy.display());
             } else {
-                let (obs, n) = topa::export::export(&policy, &onnx, motor_targets)?;
+                let (obs, n) = topa_tools::export::export(&policy, &onnx, motor_targets)?;
                 let targets = if motor_targets { format!(", motor_targets[batch, {n}]") } else { String::new() };
                 println!(
                     "wrote {} (opset {}, input obs[batch, {obs}] → action[batch, {n}]{targets})",
                     onnx.display(),
-                    topa::export::OPSET,
+                    topa_tools::export::OPSET,
                 );
             }
             Ok(())

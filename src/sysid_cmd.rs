@@ -3,163 +3,17 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use crate::cli::SysidCmd;
 use anyhow::{Context, Result};
-use clap::Subcommand;
 
-use crate::sysid::bench::{windows, Bench, Params};
-use crate::sysid::excite::{self, CommandKind, Design, Shape};
-use crate::sysid::fit::{FitOptions, Kind};
-use crate::sysid::identify::{self, Identification, Plan};
-use crate::sysid::log::MotorLog;
-use crate::sysid::synthetic::{self, SensorModel};
+use topa_sysid::bench::{windows, Bench, Params};
+use topa_sysid::excite::{self, CommandKind, Design};
+use topa_sysid::fit::FitOptions;
+use topa_sysid::identify::{self, Identification, Plan};
+use topa_sysid::log::MotorLog;
+use topa_sysid::synthetic::{self, SensorModel};
 
-#[derive(Subcommand)]
-pub enum SysidCmd {
-    /// Write a frequency-rich command trajectory for a motor bench or a robot hung in the air (CSV a bench
-    /// controller can play) and the plot of its spectrum.
-    Excite {
-        /// The robot spec whose motors are excited (position targets start from its stand pose).
-        #[arg(long, default_value = "assets/robots/topa_closed.toml")]
-        robot: PathBuf,
-        /// Motors to excite, by actuator name (default: all of the spec's motors).
-        #[arg(long, value_delimiter = ',')]
-        motors: Vec<String>,
-        #[arg(long, value_enum, default_value = "multisine")]
-        shape: Shape,
-        /// What the trajectory commands.
-        #[arg(long, value_enum, default_value = "position")]
-        kind: CommandKind,
-        /// Peak deviation from the stand pose (rad) or from zero torque (N·m).
-        #[arg(long, default_value_t = 0.2)]
-        amplitude: f64,
-        /// Frequency band LOW,HIGH (Hz).
-        #[arg(long, value_delimiter = ',', default_value = "0.5,15")]
-        band: Vec<f64>,
-        /// Seconds.
-        #[arg(long, default_value_t = 30.0)]
-        duration: f64,
-        /// Samples per second of the written trajectory.
-        #[arg(long, default_value_t = 500.0)]
-        rate: f64,
-        /// Fade in and out, s.
-        #[arg(long, default_value_t = 1.0)]
-        fade: f64,
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// The CSV to write (the spectrum goes beside it as *_spectrum.png).
-        #[arg(long, default_value = "out/sysid/excite.csv")]
-        out: PathBuf,
-    },
-    /// Play an excitation through a bench with hidden parameters and write the log its sensors would record (and
-    /// the hidden values beside it, *_truth.json): a bench that does not exist, to rehearse or prove a fit.
-    Simulate {
-        /// The bench MJCF.
-        #[arg(long, default_value = "assets/mjcf/benches/topa_motors.xml")]
-        bench: PathBuf,
-        /// Instead of a bench: this robot spec hung in the air (base fixed, contacts off, loops closed).
-        #[arg(long, conflicts_with = "bench")]
-        robot: Option<PathBuf>,
-        /// The excitation CSV (`topa sysid excite`); position targets go through the bench actuators' PD gains.
-        #[arg(long)]
-        excitation: PathBuf,
-        /// Seed of the hidden parameters: each motor's armature, damping, dry friction and torque constant off the
-        /// bench's by 30–50 % either way, and a delay of 1–5 ms.
-        #[arg(long, default_value_t = 7)]
-        hidden_seed: u64,
-        /// The hidden delay, s, instead of a drawn one.
-        #[arg(long)]
-        hidden_delay: Option<f64>,
-        /// Encoder counts per output revolution (the realistic sim2sim's: 16384; 0: exact).
-        #[arg(long, default_value_t = 16384.0)]
-        counts_per_rev: f64,
-        /// White position noise, rad.
-        #[arg(long, default_value_t = 2e-4)]
-        position_noise: f64,
-        /// Seed of the sensor noise.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// The log CSV to write.
-        #[arg(long, default_value = "out/sysid/log.csv")]
-        out: PathBuf,
-    },
-    /// Tune the state estimator's noise parameters against ground truth: on recordings of the realistic sim2sim
-    /// with a policy walking (default), or on a robot's own recordings in the same columns; writes a sim2sim config
-    /// with the tuned values and the velocity error before and after.
-    Estimator {
-        /// The policy that walks while the realistic sim2sim records (when no --recording is given).
-        #[arg(long, default_value = "assets/policies/C/seed1.json")]
-        policy: PathBuf,
-        /// Seconds of each recording.
-        #[arg(long, default_value_t = 48.0)]
-        seconds: f64,
-        /// Tune on this recording instead (CSV, docs/sysid.md); needs --held-out-recording.
-        #[arg(long, requires = "held_out_recording")]
-        recording: Option<PathBuf>,
-        #[arg(long)]
-        held_out_recording: Option<PathBuf>,
-        /// Seed of the fitted recording (the held-out one gets seed + 1).
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Output folder (estimator.toml, estimator.md, estimator.json, the recordings).
-        #[arg(long, default_value = "out/sysid/estimator")]
-        out: PathBuf,
-    },
-    /// Identify the motors' armature, damping, dry friction, torque constant and command delay from a log: MuJoCo
-    /// replays the logged commands and Levenberg–Marquardt matches the logged positions.
-    Fit {
-        /// The bench MJCF (every joint a logged motor; docs/sysid.md).
-        #[arg(long, default_value = "assets/mjcf/benches/topa_motors.xml")]
-        bench: PathBuf,
-        /// Instead of a bench: this robot spec hung in the air (base fixed, contacts off, loops closed); the log
-        /// holds all its motors.
-        #[arg(long, conflicts_with = "bench")]
-        robot: Option<PathBuf>,
-        /// The log CSV (docs/sysid.md).
-        #[arg(long)]
-        log: PathBuf,
-        /// A second log to hold out (default: the last --held-out share of --log).
-        #[arg(long)]
-        held_out_log: Option<PathBuf>,
-        /// Share of the log held out when no --held-out-log is given.
-        #[arg(long, default_value_t = 0.2)]
-        held_out: f64,
-        /// Parameters to fit.
-        #[arg(
-            long,
-            value_enum,
-            value_delimiter = ',',
-            default_value = "armature,damping,frictionloss,torque-constant,delay"
-        )]
-        fit: Vec<Kind>,
-        /// Window length, s: each window starts from the logged state (multiple shooting). Default: 5 s when every
-        /// motor runs its PD loop (errors die out), 0.5 s for torque or current commands (open loop drifts).
-        #[arg(long)]
-        window: Option<f64>,
-        /// Seconds after each window's start left out of the comparison (default under PD loops: 0.1 s on a bench,
-        /// 1 s on the hung robot; 0 for torque or current commands).
-        #[arg(long)]
-        burn_in: Option<f64>,
-        /// Upper bound of the delay, s.
-        #[arg(long, default_value_t = 0.02)]
-        max_delay: f64,
-        /// Box of each parameter: [0, range × the bench's value] (torque constant: [1/range, range] × its start).
-        #[arg(long, default_value_t = 5.0)]
-        range: f64,
-        /// Start value of the torque constant (N·m/A for current logs; a ratio otherwise).
-        #[arg(long, default_value_t = 1.0)]
-        torque_constant: f64,
-        #[arg(long, default_value_t = 3000)]
-        max_evaluations: usize,
-        /// Hidden true values (a *_truth.json of `topa sysid simulate`): report each fitted value's error.
-        #[arg(long)]
-        truth: Option<PathBuf>,
-        /// Output folder (identified.json, identified.md, fit.png, <bench>_identified.xml).
-        #[arg(long, default_value = "out/sysid/fit")]
-        out: PathBuf,
-    },
-}
-
-pub fn run(cmd: SysidCmd) -> Result<()> {
+pub(crate) fn run(cmd: SysidCmd) -> Result<()> {
     match cmd {
         SysidCmd::Excite { robot, motors, shape, kind, amplitude, band, duration, rate, fade, seed, out } => {
             anyhow::ensure!(band.len() == 2, "--band takes LOW,HIGH in Hz, e.g. 0.5,15");
@@ -199,7 +53,7 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
             if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir)?;
             }
-            crate::eval::report::write_text(
+            topa_eval::report::write_text(
                 out.parent().unwrap_or(std::path::Path::new(".")),
                 &out.file_name().context("--out names a file")?.to_string_lossy(),
                 &excite::csv(&d, kind, &chosen),
@@ -208,7 +62,7 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
                 "{}_spectrum.png",
                 out.file_stem().map_or("excite".into(), |s| s.to_string_lossy().into_owned())
             ));
-            crate::sysid::spectrum_plot::plot(&d, &d.signal(0), &png)?;
+            topa_sysid::spectrum_plot::plot(&d, &d.signal(0), &png)?;
             let share = excite::energy_in_band(&d.signal(0), rate, d.band);
             println!(
                 "{}: {} motors × {} samples ({:?} {:?}, {:.0} % of the energy in {}–{} Hz); spectrum: {}",
@@ -245,9 +99,9 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
             let log = synthetic::record(&b, &exc, &truth, &sensors)?;
             let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
             let name = out.file_name().context("--out names a file")?.to_string_lossy().into_owned();
-            crate::eval::report::write_text(dir, &name, &log.to_csv())?;
+            topa_eval::report::write_text(dir, &name, &log.to_csv())?;
             let stem = out.file_stem().map_or("log".into(), |s| s.to_string_lossy().into_owned());
-            crate::eval::report::write_json(dir, &format!("{stem}_truth.json"), &truth)?;
+            topa_eval::report::write_json(dir, &format!("{stem}_truth.json"), &truth)?;
             println!(
                 "{}: {} motors × {} samples; hidden values in {}/{stem}_truth.json; sensor noise floor {:.2e} rad",
                 out.display(),
@@ -279,7 +133,7 @@ pub fn run(cmd: SysidCmd) -> Result<()> {
             let data = MotorLog::read(&log)?;
             let (mut b, mjcf) = load_bench(&bench, robot.as_deref(), &data)?;
             let closed_loop =
-                data.motors.iter().all(|m| matches!(m.command, crate::sysid::log::Command::Position { .. }));
+                data.motors.iter().all(|m| matches!(m.command, topa_sysid::log::Command::Position { .. }));
             let window = window.unwrap_or(if closed_loop { 5.0 } else { 0.5 });
             // A hung leg's slowest PD mode takes about a second to forget a window's initial state; a bench load 0.1 s.
             let burn_in = burn_in.unwrap_or(match (closed_loop, robot.is_some()) {
@@ -342,8 +196,8 @@ fn tune_estimator(
     seed: u64,
     out: &std::path::Path,
 ) -> Result<()> {
-    use crate::eval::settings::{EvalSettings, Sim2SimMode};
-    use crate::sysid::estimator;
+    use topa_eval::settings::{EvalSettings, Sim2SimMode};
+    use topa_sysid::estimator;
     let base = EvalSettings { seed, threads: 1, ..EvalSettings::default() }.with_sim2sim(&Sim2SimMode::Realistic)?;
     let default = base.sim2sim.estimator.filter.clone();
     let (fit, held, mut runner) = match (recording, held_out) {
@@ -353,8 +207,8 @@ fn tune_estimator(
             eprintln!("recording {seconds} s of the realistic sim2sim twice (seeds {seed} and {})", seed + 1);
             let fit = estimator::record(&mut runner, &base, seconds)?;
             let held = estimator::record(&mut runner, &EvalSettings { seed: seed + 1, ..base.clone() }, seconds)?;
-            crate::eval::report::write_text(out, "recording.csv", &estimator::to_csv(&fit))?;
-            crate::eval::report::write_text(out, "held_out.csv", &estimator::to_csv(&held))?;
+            topa_eval::report::write_text(out, "recording.csv", &estimator::to_csv(&fit))?;
+            topa_eval::report::write_text(out, "held_out.csv", &estimator::to_csv(&held))?;
             (fit, held, Some(runner))
         }
     };
@@ -377,13 +231,13 @@ fn tune_estimator(
         "# The realistic sim2sim with the state estimator tuned by `topa sysid estimator` (use: --sim2sim <this file>).\n{}",
         toml::to_string(&tuned)?
     );
-    crate::eval::report::write_text(out, "estimator.toml", &toml)?;
+    topa_eval::report::write_text(out, "estimator.toml", &toml)?;
     // The file is what `--sim2sim` will read: it must load back to these values.
     let back = EvalSettings::default().with_sim2sim(&Sim2SimMode::File(out.join("estimator.toml")))?;
     anyhow::ensure!(back.sim2sim == tuned, "estimator.toml does not load back to the tuned values (a bug)");
-    crate::eval::report::write_json(out, "estimator.json", &(&t, closed))?;
+    topa_eval::report::write_json(out, "estimator.json", &(&t, closed))?;
     let md = estimator::markdown(&t, closed);
-    crate::eval::report::write_text(out, "estimator.md", &md)?;
+    topa_eval::report::write_text(out, "estimator.md", &md)?;
     println!("{md}\nresults: {} (estimator.toml, estimator.md, estimator.json)", out.display());
     Ok(())
 }
@@ -394,7 +248,7 @@ fn load_bench(bench: &std::path::Path, robot: Option<&std::path::Path>, log: &Mo
         None => (Bench::load(bench, log)?, bench.to_path_buf()),
         Some(r) => {
             let spec = topa_env::assets::resolve_path(&r.to_string_lossy());
-            let b = crate::sysid::robot::hung_bench(&spec, log)?;
+            let b = topa_sysid::robot::hung_bench(&spec, log)?;
             let mjcf = topa_env::spec::RobotSpec::load(&spec)?.0.mjcf;
             (b, mjcf)
         }
@@ -411,8 +265,8 @@ fn write_identification(
     out: &std::path::Path,
 ) -> Result<()> {
     let md = identify::markdown(id);
-    crate::eval::report::write_json(out, "identified.json", id)?;
-    crate::eval::report::write_text(out, "identified.md", &md)?;
+    topa_eval::report::write_json(out, "identified.json", id)?;
+    topa_eval::report::write_text(out, "identified.md", &md)?;
     // The plot: the first 2 s held out.
     let (plot_log, from) = match held {
         Some(h) => (h, 0),

@@ -9,6 +9,56 @@ fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The library crates, each a folder at the root; the command line is the root package (`src/`).
+const LIBRARIES: [&str; 7] =
+    ["mujoco-sys", "trainer", "topa-env", "topa-train", "topa-eval", "topa-sysid", "topa-tools"];
+
+/// A crate's path dependencies (the workspace's own crates), from its manifest.
+fn own_dependencies(manifest_dir: &str) -> BTreeSet<String> {
+    let manifest = std::fs::read_to_string(root().join(manifest_dir).join("Cargo.toml")).unwrap();
+    let t: toml::Table = toml::from_str(&manifest).unwrap();
+    let deps = t.get("dependencies").and_then(|d| d.as_table()).cloned().unwrap_or_default();
+    deps.keys().filter(|k| LIBRARIES.contains(&k.as_str()) || k.as_str() == "topa").cloned().collect()
+}
+
+/// The layers, lowest first: a crate may depend only on crates before it in this list.
+#[test]
+fn crates_depend_only_on_the_layers_below_them() {
+    for (i, c) in LIBRARIES.iter().enumerate() {
+        for d in own_dependencies(c) {
+            let at = LIBRARIES.iter().position(|l| *l == d);
+            assert!(at.is_some_and(|at| at < i), "{c} depends on {d}, which is not a layer below it");
+        }
+    }
+}
+
+/// The command line is a binary (no library target, checked below), so a library can reach it only through a
+/// dependency on its package: none may have one.
+#[test]
+fn no_library_imports_the_command_line() {
+    for c in LIBRARIES {
+        assert!(!own_dependencies(c).contains("topa"), "{c} depends on the command-line crate");
+    }
+}
+
+/// The command line is a binary with no library target and nothing public: flags and dispatch only.
+#[test]
+fn the_command_line_is_a_binary_with_no_public_items() {
+    assert!(!root().join("src/lib.rs").exists(), "src/lib.rs makes the command line a library");
+    let manifest: toml::Table = toml::from_str(&std::fs::read_to_string(root().join("Cargo.toml")).unwrap()).unwrap();
+    assert!(!manifest.contains_key("lib"), "a [lib] target makes the command line a library");
+    let code = all_code(&root().join("src"));
+    for line in code.lines() {
+        let t = line.trim_start();
+        assert!(!t.starts_with("pub ") && !t.contains(" pub "), "a public item in the command line: {line}");
+    }
+}
+
+/// Every `.rs` file's code under a folder, comments and tests left out.
+fn all_code(dir: &Path) -> String {
+    modules(dir).into_values().collect::<Vec<_>>().join("\n")
+}
+
 #[test]
 fn the_learner_depends_on_no_robot_crate() {
     let manifest = std::fs::read_to_string(root().join("trainer/Cargo.toml")).unwrap();
@@ -207,7 +257,8 @@ fn cycles(src: &Path) -> Vec<Vec<String>> {
 
 #[test]
 fn no_crate_has_an_import_cycle_between_its_modules() {
-    for src in ["src", "topa-env/src", "trainer/src", "mujoco-sys/src"] {
+    for src in LIBRARIES.iter().map(|c| format!("{c}/src")).chain(["src".to_string()]) {
+        let src = src.as_str();
         let g = graph(&root().join(src));
         assert!(g.len() > 3, "{src}: too few modules found ({g:?})");
         let found = cycles(&root().join(src));

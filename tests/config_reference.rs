@@ -4,8 +4,8 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use topa::config_reference::{leaf_keys, reference, resolved_table, sections, show};
-use topa::train_cmd::{load_config, with_resolved_env};
+use topa_tools::config_reference::{leaf_keys, reference, resolved_table, sections, show};
+use topa_train::{load_config, with_resolved_env};
 
 const PAPER: &str = "configs/paper.toml";
 

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use topa::dashboard::{self, Group, Run};
+use topa_train::dashboard::{self, Group, Run};
 
 mod common;
 

@@ -5,8 +5,13 @@
 use std::path::{Path, PathBuf};
 
 use clap::Parser;
-use topa::cli::Cli;
-use topa::eval::ablate::Ablation;
+use topa_eval::ablate::Ablation;
+
+// The command line's clap tree, read from the binary's sources (the binary crate has no library to import).
+#[allow(dead_code)]
+#[path = "../src/cli/mod.rs"]
+mod cli;
+use cli::Cli;
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -134,16 +139,16 @@ fn every_relative_link_in_the_docs_resolves() {
 #[test]
 fn the_readme_tables_are_the_committed_reports() {
     let text = std::fs::read_to_string(root().join("README.md")).unwrap();
-    let blocks = topa::doc_blocks::blocks(&text).unwrap();
+    let blocks = topa_eval::doc_blocks::blocks(&text).unwrap();
     assert!(blocks.iter().any(|b| b.section == "headline"), "the README shows the headline table");
-    let rendered = topa::doc_blocks::render(&text, root()).unwrap();
+    let rendered = topa_eval::doc_blocks::render(&text, root()).unwrap();
     assert!(rendered == text, "README.md's generated tables differ from their reports: run `topa docs README.md`");
 }
 
 #[test]
 fn topa_docs_rewrites_a_stale_number_from_the_report() {
     let text = std::fs::read_to_string(root().join("README.md")).unwrap();
-    let b = topa::doc_blocks::blocks(&text).unwrap().into_iter().find(|b| b.section == "headline").unwrap();
+    let b = topa_eval::doc_blocks::blocks(&text).unwrap().into_iter().find(|b| b.section == "headline").unwrap();
     // A table edited by hand (a group's t_fall changed) is what the rewriter must put back.
     let body = &text[b.body.clone()];
     let cell = body.find(" [").expect("the headline has intervals");
@@ -151,18 +156,18 @@ fn topa_docs_rewrites_a_stale_number_from_the_report() {
     let digit = if &text[at..at + 1] == "7" { "8" } else { "7" };
     let mut stale = text.clone();
     stale.replace_range(at..at + 1, digit);
-    assert_eq!(topa::doc_blocks::render(&stale, root()).unwrap(), text);
+    assert_eq!(topa_eval::doc_blocks::render(&stale, root()).unwrap(), text);
     // Rendering the same page twice changes nothing.
-    assert_eq!(topa::doc_blocks::render(&text, root()).unwrap(), text);
+    assert_eq!(topa_eval::doc_blocks::render(&text, root()).unwrap(), text);
 }
 
 #[test]
 fn the_committed_report_is_what_its_json_renders_to() {
     let dir = root().join("docs/results/current");
     let a: Ablation = serde_json::from_str(&std::fs::read_to_string(dir.join("ablation.json")).unwrap()).unwrap();
-    assert!(a.extent == topa::eval::ablate::Extent::full(), "the committed report is on the paper's protocol");
+    assert!(a.extent == topa_eval::ablate::Extent::full(), "the committed report is on the paper's protocol");
     let md = std::fs::read_to_string(dir.join("ablation.md")).unwrap();
-    assert_eq!(md, topa::eval::ablate::markdown(&a).unwrap(), "ablation.md is stale: re-run `topa ablate --merge`");
+    assert_eq!(md, topa_eval::ablate::markdown(&a).unwrap(), "ablation.md is stale: re-run `topa ablate --merge`");
     // Every shipped seed of the three groups is in it, and nothing else.
     let mut shipped: Vec<String> = Vec::new();
     for g in ["O", "C", "CA"] {

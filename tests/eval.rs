@@ -7,12 +7,12 @@ use std::sync::Arc;
 use candle_core::{Device, Tensor};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use topa::eval::settings::EvalSettings;
-use topa::eval::{noise, push, results, tracking};
-use topa::play::PlayOptions;
 use topa_env::policy_runner::PolicyRunner;
 use topa_env::topa::{self as topa_ref, ModelKind, N_MOTORS};
 use topa_env::{assets, EnvConfig, RobotEnv, Task};
+use topa_eval::play::PlayOptions;
+use topa_eval::settings::EvalSettings;
+use topa_eval::{noise, push, results, tracking};
 use trainer::nn::Mlp;
 use trainer::normalizer::Normalizer;
 use trainer::policy_file::{self, PolicyMeta, Provenance};
@@ -316,7 +316,7 @@ fn mcap_recording_reads_back_with_the_expected_channels() {
     let hold = constant_policy(&dir, "hold", ModelKind::Closed, hold_action());
     let path = dir.join("run.mcap");
     let o = PlayOptions { command: [0.3, 0.0, 0.0], seconds: 1.0, record: Some(path.clone()), ..Default::default() };
-    let s = topa::play::run(&hold, &o, &EvalSettings { settle_s: 0.5, ..Default::default() }).unwrap();
+    let s = topa_eval::play::run(&hold, &o, &EvalSettings { settle_s: 0.5, ..Default::default() }).unwrap();
     assert!(!s.fell);
     let bytes = std::fs::read(&path).unwrap();
     let mut counts = std::collections::BTreeMap::<String, usize>::new();
@@ -342,7 +342,7 @@ fn mcap_recording_reads_back_with_the_expected_channels() {
     let zero = constant_policy(&dir, "crouch", ModelKind::Closed, crouch_action());
     let fall_path = dir.join("fall.mcap");
     let o = PlayOptions { seconds: 10.0, record: Some(fall_path.clone()), ..Default::default() };
-    let s = topa::play::run(&zero, &o, &EvalSettings::default()).unwrap();
+    let s = topa_eval::play::run(&zero, &o, &EvalSettings::default()).unwrap();
     assert!(s.fell);
     let bytes = std::fs::read(&fall_path).unwrap();
     let n = mcap::MessageStream::new(&bytes).unwrap().count();
@@ -423,7 +423,7 @@ height = 0.01
 
 #[test]
 fn a_walking_policy_drives_a_course_and_a_standing_one_is_helped_until_time_runs_out() {
-    use topa::eval::course;
+    use topa_eval::course;
     let map = topa_env::course::Course::parse(SHORT_COURSE).unwrap();
     let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/CA/seed1.json"));
     let mut r = PolicyRunner::load(path, "CA").unwrap();
@@ -452,7 +452,7 @@ fn a_walking_policy_drives_a_course_and_a_standing_one_is_helped_until_time_runs
 
 #[test]
 fn an_endurance_run_counts_each_fall_with_its_cause() {
-    use topa::eval::endurance::{self, Operator};
+    use topa_eval::endurance::{self, Operator};
     let dir = tempdir("endurance");
     let crouch = constant_policy(&dir, "crouch", ModelKind::Closed, crouch_action());
     let mut r = PolicyRunner::load(&crouch, "crouch").unwrap();

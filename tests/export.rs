@@ -6,10 +6,10 @@ use std::path::{Path, PathBuf};
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use topa::eval::settings::EvalSettings;
 use topa_env::policy_runner::PolicyRunner;
 use topa_env::topa::{ModelKind, N_MOTORS};
 use topa_env::{assets, RobotEnv, Task};
+use topa_eval::settings::EvalSettings;
 use tract_onnx::prelude::*;
 
 fn policy(name: &str) -> PathBuf {
@@ -75,8 +75,8 @@ fn onnx_matches_our_forward_pass_for_every_bundled_policy() {
     let seeds = ["O/seed1", "O/seed2", "C/seed1", "C/seed2", "C/seed3", "CA/seed1", "CA/seed2", "CA/seed3"];
     for name in seeds {
         let file = dir.join(format!("{}.onnx", name.replace('/', "_")));
-        topa::export::export(&policy(name), &file, true).unwrap();
-        topa::export::check(&file, &policy(name)).unwrap();
+        topa_tools::export::export(&policy(name), &file, true).unwrap();
+        topa_tools::export::check(&file, &policy(name)).unwrap();
         let out = run_onnx(&file, &obs);
         // Ours: the evaluation's runner (motor space in and out, O mapped through M).
         let mut runner = PolicyRunner::load(&policy(name), name).unwrap();
@@ -106,20 +106,20 @@ fn onnx_matches_our_forward_pass_for_every_bundled_policy() {
 fn corrupt_or_mismatched_files_are_one_clear_error() {
     let dir = tempdir("bad");
     let file = dir.join("C.onnx");
-    topa::export::export(&policy("C/seed1"), &file, false).unwrap();
+    topa_tools::export::export(&policy("C/seed1"), &file, false).unwrap();
     // Exported from another policy.
-    let err = topa::export::check(&file, &policy("O/seed1")).unwrap_err().to_string();
+    let err = topa_tools::export::check(&file, &policy("O/seed1")).unwrap_err().to_string();
     assert!(err.contains("was not exported from") && err.lines().count() == 1, "{err}");
     // Truncated.
     let bytes = std::fs::read(&file).unwrap();
     let cut = dir.join("cut.onnx");
     std::fs::write(&cut, &bytes[..bytes.len() / 3]).unwrap();
-    let err = format!("{:#}", topa::export::read(&cut).unwrap_err());
+    let err = format!("{:#}", topa_tools::export::read(&cut).unwrap_err());
     assert!(err.contains("is not an ONNX model") && err.contains("topa export"), "{err}");
     // Not ONNX at all.
     let junk = dir.join("junk.onnx");
     std::fs::write(&junk, b"{\"hello\": 1}").unwrap();
-    assert!(topa::export::read(&junk).is_err());
+    assert!(topa_tools::export::read(&junk).is_err());
     // A corrupt policy cannot be exported.
     let copy = dir.join("p");
     std::fs::create_dir_all(&copy).unwrap();
@@ -131,7 +131,7 @@ fn corrupt_or_mismatched_files_are_one_clear_error() {
     let n = b.len();
     b[n - 5] ^= 0xff;
     std::fs::write(&w, b).unwrap();
-    let err = topa::export::export(&copy.join("seed1.json"), &dir.join("x.onnx"), false).unwrap_err().to_string();
+    let err = topa_tools::export::export(&copy.join("seed1.json"), &dir.join("x.onnx"), false).unwrap_err().to_string();
     assert!(err.contains("corrupt"), "{err}");
     assert!(!dir.join("x.onnx").exists());
     std::fs::remove_dir_all(dir).ok();
@@ -144,8 +144,8 @@ fn a_second_robot_exports_with_its_own_layout() {
     let dir = tempdir("kestrel");
     let file = dir.join("kestrel.onnx");
     let src = policy("kestrel/seed1");
-    topa::export::export(&src, &file, true).unwrap();
-    let model = topa::export::read(&file).unwrap();
+    topa_tools::export::export(&src, &file, true).unwrap();
+    let model = topa_tools::export::read(&file).unwrap();
     let meta = |k: &str| model.metadata_props.iter().find(|p| p.key == k).map(|p| p.value.clone()).unwrap();
     assert_eq!(meta("robot"), "kestrel");
     let order: Vec<String> = serde_json::from_str(&meta("motor_order")).unwrap();

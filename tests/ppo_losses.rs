@@ -4,7 +4,7 @@
 use candle_core::{Device, Tensor, Var};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use topa::train_cmd::load_config;
+use topa_train::load_config;
 use trainer::actor_critic::ActorCritic;
 use trainer::config::{LossConfig, PpoConfig, TrainConfig};
 use trainer::ppo::{self, Agent, Batch};

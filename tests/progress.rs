@@ -14,11 +14,11 @@ fn a_checkpoint_exports_as_the_policy_the_run_had_at_that_iteration() {
     let run = dir.join("run");
     common::cli_train(Some(&config), &run, false, None);
 
-    let picked: Vec<usize> = topa::eval::progress::checkpoints(&run, 5).unwrap().into_iter().map(|c| c.0).collect();
+    let picked: Vec<usize> = topa_eval::progress::checkpoints(&run, 5).unwrap().into_iter().map(|c| c.0).collect();
     assert_eq!(picked, [5, 10, 12], "multiples of 5 and the last");
 
     let ck = run.join("checkpoints");
-    let last = topa::train_cmd::export_checkpoint(&ck.join("ckpt_0000012.json"), &dir.join("it12")).unwrap();
+    let last = topa_train::export_checkpoint(&ck.join("ckpt_0000012.json"), &dir.join("it12")).unwrap();
     assert_eq!(
         std::fs::read(dir.join("it12.safetensors")).unwrap(),
         std::fs::read(run.join("policy.safetensors")).unwrap(),
@@ -31,8 +31,7 @@ fn a_checkpoint_exports_as_the_policy_the_run_had_at_that_iteration() {
     assert_eq!(p12.meta.provenance.config, end.meta.provenance.config, "the same resolved config");
 
     let p5 =
-        Policy::load(&topa::train_cmd::export_checkpoint(&ck.join("ckpt_0000005.json"), &dir.join("it5")).unwrap())
-            .unwrap();
+        Policy::load(&topa_train::export_checkpoint(&ck.join("ckpt_0000005.json"), &dir.join("it5")).unwrap()).unwrap();
     assert_eq!((p5.meta.provenance.iterations, p5.meta.provenance.samples), (5, 5 * 8 * 16));
     assert!(p5.meta.provenance.wall_time_s < p12.meta.provenance.wall_time_s);
     let (mut a5, mut a12) = (Vec::new(), Vec::new());
@@ -47,7 +46,7 @@ fn a_checkpoint_exports_as_the_policy_the_run_had_at_that_iteration() {
     let n = bytes.len();
     bytes[n - 3] ^= 0x55;
     std::fs::write(&w, bytes).unwrap();
-    let e = topa::train_cmd::export_checkpoint(&ck.join("ckpt_0000010.json"), &dir.join("it10")).unwrap_err();
+    let e = topa_train::export_checkpoint(&ck.join("ckpt_0000010.json"), &dir.join("it10")).unwrap_err();
     assert!(format!("{e:#}").contains("ckpt_0000010.safetensors does not match the checksum"), "{e:#}");
     std::fs::remove_dir_all(dir).ok();
 }

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 mod common;
 
-use topa::config_reference::leaf_keys;
 use topa_env::{EnvConfig, TaskKind};
+use topa_tools::config_reference::leaf_keys;
 use trainer::TrainConfig;
 
 /// A two-iteration cart-pole run whose `[env]` says only which task (and one σ, after `common::TINY_CARTPOLE`):

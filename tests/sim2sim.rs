@@ -4,9 +4,9 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use topa::eval::settings::{EvalSettings, Sim2SimMode};
 use topa_env::policy_runner::PolicyRunner;
 use topa_env::{assets, ModelKind, RobotEnv, Task};
+use topa_eval::settings::{EvalSettings, Sim2SimMode};
 
 fn realistic() -> EvalSettings {
     EvalSettings::default().with_sim2sim(&Sim2SimMode::Realistic).unwrap()

@@ -4,12 +4,12 @@
 
 use std::path::{Path, PathBuf};
 
-use topa::sysid::bench::Bench;
-use topa::sysid::excite::{self, CommandKind, Design, Shape};
-use topa::sysid::fit::{FitOptions, Kind};
-use topa::sysid::identify::{self, Plan};
-use topa::sysid::log::MotorLog;
-use topa::sysid::synthetic::{self, SensorModel};
+use topa_sysid::bench::Bench;
+use topa_sysid::excite::{self, CommandKind, Design, Shape};
+use topa_sysid::fit::{FitOptions, Kind};
+use topa_sysid::identify::{self, Plan};
+use topa_sysid::log::MotorLog;
+use topa_sysid::synthetic::{self, SensorModel};
 
 const BENCH: &str = "assets/mjcf/benches/topa_motors.xml";
 
@@ -179,9 +179,9 @@ fn logs_that_do_not_fit_the_bench_are_refused_naming_the_fix() {
 
 mod estimator_tuning {
     use super::*;
-    use topa::eval::settings::{EvalSettings, Sim2SimMode};
-    use topa::sysid::estimator;
     use topa_env::policy_runner::PolicyRunner;
+    use topa_eval::settings::{EvalSettings, Sim2SimMode};
+    use topa_sysid::estimator;
 
     #[test]
     fn the_filter_replays_exactly_and_tuning_lowers_the_held_out_velocity_error() {

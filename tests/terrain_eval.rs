@@ -4,10 +4,10 @@
 
 use std::path::Path;
 
-use topa::eval::settings::EvalSettings;
-use topa::eval::{terrain, terrain_map};
 use topa_env::policy_runner::PolicyRunner;
 use topa_env::terrain::TileKind;
+use topa_eval::settings::EvalSettings;
+use topa_eval::{terrain, terrain_map};
 
 fn c_policy() -> PolicyRunner {
     PolicyRunner::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policies/C/seed1.json")), "C").unwrap()

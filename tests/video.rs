@@ -6,10 +6,10 @@ use std::path::Path;
 use std::process::Command;
 
 use mujoco_sys::render::Renderer;
-use topa::eval::settings::EvalSettings;
-use topa::play::{self, PlayOptions};
-use topa::video::GlContext;
 use topa_env::{assets, EnvConfig, ModelKind, RobotEnv, Task};
+use topa_eval::play::{self, PlayOptions};
+use topa_eval::settings::EvalSettings;
+use topa_eval::video::GlContext;
 
 fn tempdir(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("topa-video-{name}-{}", std::process::id()));

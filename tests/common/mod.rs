@@ -4,8 +4,7 @@
 
 pub mod view;
 
-use topa_env::tasks::{cartpole, CartPole};
-use topa_env::{BatchEnv, EnvConfig, TaskKind};
+use topa_env::{EnvConfig, TaskKind};
 use trainer::config::TrainConfig;
 use trainer::Trainer;
 
@@ -34,30 +33,22 @@ pub fn set_push_bound(cfg: &mut TrainConfig, newtons: f64) {
 }
 
 pub fn cartpole_trainer(cfg: &TrainConfig, with_adversary: bool) -> Trainer {
-    let model = cartpole::model().unwrap();
-    let bound = EnvConfig::from_table(&cfg.env).unwrap().adversary.generic_bound;
-    let tasks = (0..cfg.run.num_envs)
-        .map(|i| CartPole::new(model.clone(), cfg.run.seed, i as u64, 200, bound).unwrap())
-        .collect();
-    Trainer::new(cfg.clone(), Box::new(BatchEnv::new(tasks, 1).unwrap()), with_adversary).unwrap()
+    let env = EnvConfig::from_table(&cfg.env).unwrap();
+    let envs = topa_env::vec_env::task_batch(&env, 0, cfg.run.num_envs, cfg.run.seed, 1).unwrap();
+    Trainer::new(cfg.clone(), envs, with_adversary).unwrap()
 }
 
-/// `topa train` as the CLI runs it: a new run from `config` into `out`, or (`resume`) the run in `out` continued.
+/// A training run as `topa train` opens it: a new run from `config` into `out`, or (`resume`) the run in `out` continued.
 pub fn cli_train(config: Option<&std::path::Path>, out: &std::path::Path, resume: bool, iterations: Option<usize>) {
-    topa::train_cmd::run(topa::train_cmd::TrainArgs {
+    let start = topa_train::Start {
         config: config.map(std::path::Path::to_path_buf),
-        model: None,
-        robot: None,
-        seed: None,
         out: (!resume).then(|| out.to_path_buf()),
-        adversary: false,
-        threads: None,
         iterations,
         resume: resume.then(|| out.to_path_buf()),
-        init_from: None,
-        quiet: true,
-    })
-    .unwrap();
+        command: "topa train (test)".into(),
+        ..Default::default()
+    };
+    topa_train::Run::open(&start).unwrap().train(|_| {}).unwrap();
 }
 
 /// A 12-iteration run that keeps a checkpoint every 5 iterations, all of them (a config file's `[run]` table).

@@ -118,9 +118,4 @@ impl RobotIndices {
     pub fn obs_layout(&self) -> ObsLayout {
         ObsLayout::new(self.n_motors)
     }
-
-    /// Whether the actuators drive other joints than the kinematic ones (a closed chain).
-    pub fn has_loops(&self) -> bool {
-        !self.loops.is_empty()
-    }
 }

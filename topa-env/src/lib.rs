@@ -1,5 +1,19 @@
 //! The TopA robot spec, the paper's training environment, and a rayon-batched implementation of the learner's
 //! `VecEnv` (defined by the trainer, which knows no robot) on mujoco-sys.
+//!
+//! ```
+//! use topa_env::{vec_env, EnvConfig, VecEnv};
+//!
+//! // Two envs of the default task (TopA, closed chain), stepped with zero actions (the stand pose's targets).
+//! let cfg = EnvConfig::default();
+//! let mut envs = vec_env::task_batch(&cfg, 0, 2, 1, 1)?;
+//! envs.reset()?;
+//! envs.step(&vec![0.0; 2 * envs.action_dim()])?;
+//! assert_eq!(envs.action_dim(), 10);
+//! assert_eq!(envs.obs().len(), 2 * envs.obs_dim());
+//! assert!(envs.obs().iter().all(|x| x.is_finite()));
+//! # anyhow::Ok(())
+//! ```
 
 pub mod assets;
 pub mod config;

@@ -14,7 +14,7 @@ use crate::task::Task;
 use mujoco_sys::Model;
 
 use crate::assets::load_robot;
-use crate::config::EnvConfig;
+use crate::config::{EnvConfig, TaskKind};
 use crate::env::RobotEnv;
 use crate::indices::RobotIndices;
 use crate::spec::RobotSpec;
@@ -376,6 +376,29 @@ fn mean_level<T: Task>(tasks: &[T]) -> Option<f64> {
     let levels: Vec<f64> = tasks.iter().filter_map(|t| t.curriculum_level()).collect();
     (!levels.is_empty()).then(|| levels.iter().sum::<f64>() / levels.len() as f64)
 }
+
+/// The batched envs of a task's config, the robot's or the cart-pole's: envs `first`, `first + 1`, … of a run
+/// seeded `seed` (`first` = 0 for a whole run, `rank · n` for one MPI rank's share, so a seed names the same env
+/// streams whatever the rank layout), stepped on `threads` threads (0 = rayon's global pool).
+pub fn task_batch(cfg: &EnvConfig, first: u64, n: usize, seed: u64, threads: usize) -> Result<Box<dyn VecEnv>> {
+    Ok(match cfg.task {
+        TaskKind::Robot => {
+            let (spec, model) = load_robot(cfg)?;
+            Box::new(robot_batch_from(model, &spec, cfg, first, n, seed, threads)?)
+        }
+        TaskKind::Cartpole => {
+            let model = crate::tasks::cartpole::model()?;
+            let bound = cfg.adversary.generic_bound;
+            let tasks = (0..n as u64)
+                .map(|i| crate::tasks::CartPole::new(model.clone(), seed, first + i, CARTPOLE_STEPS, bound))
+                .collect::<Result<Vec<_>>>()?;
+            Box::new(BatchEnv::new(tasks, threads)?)
+        }
+    })
+}
+
+/// The cart-pole's episode length, steps: long enough that a balancing policy is told apart from a falling one.
+pub const CARTPOLE_STEPS: usize = 200;
 
 /// `n` envs of the robot `cfg.robot` names, env `i` seeded with (`seed`, stream `i`), stepped on `threads`
 /// threads (0 = rayon's global pool). The model is compiled once and checked against the spec once.

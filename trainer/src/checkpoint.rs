@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::TrainConfig;
 use crate::optim::AdamState;
 use crate::ppo::Agent;
-use crate::tensorfile::{checksum, write_atomic, Bundle, Loaded};
+use crate::tensorfile::{checksum, write_atomic, Bundle, Loaded, SidecarKind};
 use crate::train::Trainer;
 use crate::vec_env::EnvSnapshot;
 
@@ -247,23 +247,8 @@ pub fn latest(dir: &Path) -> Result<PathBuf> {
 
 /// Reads and validates a sidecar (format, version, weights checksum).
 pub fn read_sidecar(path: &Path) -> Result<(Sidecar, Loaded)> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read checkpoint {}", path.display()))?;
-    let side: Sidecar =
-        serde_json::from_str(&text).with_context(|| format!("{} is not a valid checkpoint sidecar", path.display()))?;
-    if side.format != FORMAT || side.version != VERSION {
-        bail!(
-            "{} is a '{}' v{} file; this build reads '{FORMAT}' v{VERSION}",
-            path.display(),
-            side.format,
-            side.version
-        );
-    }
-    let weights = path.parent().unwrap_or(Path::new(".")).join(&side.weights);
-    let loaded = Loaded::read(&weights)?;
-    if checksum(loaded.bytes()) != side.weights_crc32 {
-        bail!("{} does not match the checksum in {}: the file is corrupt", weights.display(), path.display());
-    }
-    Ok((side, loaded))
+    let kind = SidecarKind { kind: "checkpoint", format: FORMAT, version: VERSION, hint: "" };
+    crate::tensorfile::read_sidecar(path, &kind)
 }
 
 /// Restores `t` (built from the sidecar's config) to the checkpoint's exact state.

@@ -1,6 +1,22 @@
 //! The learning core: networks (fast CPU kernels inside Candle's autograd), PPO with the paper's symmetry and
 //! last-layer decay losses, the cyclic adversary, checkpoints and policy files — and the interface it needs from
 //! an environment (`vec_env`, `symmetry`), which knows no robot.
+//!
+//! ```
+//! use trainer::{SignedPermutation, TrainConfig};
+//!
+//! // The paper's cyclic schedule: 1000 iterations of the policy alone, then 5 × (200 adversary + 200 policy).
+//! let cfg = TrainConfig::default();
+//! cfg.validate().unwrap();
+//! assert_eq!(cfg.adversary.schedule().total(), 1000 + 5 * (200 + 200));
+//!
+//! // A mirror map is a signed permutation that undoes itself: left and right swapped, the lateral sign flipped.
+//! let s = SignedPermutation { perm: vec![1, 0, 2], sign: vec![1.0, 1.0, -1.0] };
+//! let mut mirrored = [0.0; 3];
+//! s.apply(&[0.5, 0.7, 0.2], &mut mirrored);
+//! assert_eq!(mirrored, [0.7, 0.5, -0.2]);
+//! assert!(s.is_involution());
+//! ```
 
 pub mod actor_critic;
 pub mod adversary;

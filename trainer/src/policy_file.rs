@@ -4,14 +4,14 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use candle_core::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 
 use crate::actor_critic::named_mlp;
 use crate::nn::{Activation, Linear, Mlp, MlpScratch};
 use crate::normalizer::{Normalizer, STD_EPS};
-use crate::tensorfile::{checksum, write_atomic, Bundle, Loaded};
+use crate::tensorfile::{checksum, read_sidecar, write_atomic, Bundle, Loaded, SidecarKind};
 
 pub const FORMAT: &str = "topa-policy";
 pub const VERSION: u32 = 1;
@@ -126,28 +126,14 @@ impl Policy {
         } else {
             path.to_path_buf()
         };
-        let text = std::fs::read_to_string(&json).with_context(|| {
-            format!("cannot read policy {} (pass the .json sidecar or its .safetensors)", json.display())
-        })?;
-        let meta: PolicyMeta =
-            serde_json::from_str(&text).with_context(|| format!("{} is not a valid policy sidecar", json.display()))?;
-        if meta.format != FORMAT || meta.version != VERSION {
-            bail!(
-                "{} is a '{}' v{} file; this build reads '{FORMAT}' v{VERSION}",
-                json.display(),
-                meta.format,
-                meta.version
-            );
-        }
+        let kind = SidecarKind {
+            kind: "policy",
+            format: FORMAT,
+            version: VERSION,
+            hint: " (pass the .json sidecar or its .safetensors)",
+        };
+        let (meta, l): (PolicyMeta, Loaded) = read_sidecar(&json, &kind)?;
         let weights = json.parent().unwrap_or(Path::new(".")).join(&meta.weights);
-        let l = Loaded::read(&weights)?;
-        if checksum(l.bytes()) != meta.weights_crc32 {
-            bail!(
-                "{} does not match the checksum in {}: the file is corrupt or was replaced",
-                weights.display(),
-                json.display()
-            );
-        }
         let dims: Vec<usize> = std::iter::once(meta.obs_dim)
             .chain(meta.hidden.iter().copied())
             .chain(std::iter::once(meta.action_dim))

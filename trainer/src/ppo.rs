@@ -14,6 +14,7 @@ use crate::comm::{Comm, Single};
 use crate::config::{LossConfig, PpoConfig};
 use crate::normalizer::{Moments, Normalizer};
 use crate::optim::{AdamParams, AdamW};
+pub use crate::storage::ActOutput;
 use crate::storage::Rollout;
 
 /// Mean losses and diagnostics of one update.
@@ -47,15 +48,6 @@ pub struct Agent {
     /// The ranks of a multi-process run: gradients, KL and normaliser statistics are combined over them.
     pub comm: Rc<dyn Comm>,
     buffers: InferenceBuffers,
-}
-
-/// What the agent did for one batch of observations.
-pub struct ActOutput<'a> {
-    pub obs_norm: &'a mut [f32],
-    pub actions: &'a mut [f32],
-    pub means: &'a mut [f32],
-    pub log_probs: &'a mut [f32],
-    pub values: &'a mut [f32],
 }
 
 impl Agent {

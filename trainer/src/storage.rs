@@ -1,5 +1,14 @@
 //! Rollout storage: `steps × envs` transitions in flat buffers, GAE(γ, λ) returns and normalised advantages.
 
+/// What an agent did for one batch of observations: where it writes them (a rollout's step, or scratch rows).
+pub struct ActOutput<'a> {
+    pub obs_norm: &'a mut [f32],
+    pub actions: &'a mut [f32],
+    pub means: &'a mut [f32],
+    pub log_probs: &'a mut [f32],
+    pub values: &'a mut [f32],
+}
+
 #[derive(Debug, Clone, Default)]
 pub struct Rollout {
     pub steps: usize,
@@ -57,15 +66,24 @@ impl Rollout {
         self.filled = 0;
     }
 
-    pub fn is_full(&self) -> bool {
-        self.filled == self.steps
+    /// The next step's rows of every buffer (all envs), for the acting agent to fill.
+    pub fn next_step(&mut self) -> ActOutput<'_> {
+        assert!(self.filled < self.steps, "rollout is full");
+        let (k, n, od, ad) = (self.filled, self.envs, self.obs_dim, self.act_dim);
+        self.filled += 1;
+        ActOutput {
+            obs_norm: &mut self.obs[k * n * od..(k + 1) * n * od],
+            actions: &mut self.actions[k * n * ad..(k + 1) * n * ad],
+            means: &mut self.means[k * n * ad..(k + 1) * n * ad],
+            log_probs: &mut self.log_probs[k * n..(k + 1) * n],
+            values: &mut self.values[k * n..(k + 1) * n],
+        }
     }
 
-    /// The slot of the next step: (obs, actions, log_probs, values, means) slices for all envs.
-    pub fn next_step(&mut self) -> usize {
-        assert!(self.filled < self.steps, "rollout is full");
-        self.filled += 1;
-        self.filled - 1
+    /// The actions of the last step filled (all envs).
+    pub fn last_actions(&self) -> &[f32] {
+        let (k, n, ad) = (self.filled - 1, self.envs, self.act_dim);
+        &self.actions[k * n * ad..(k + 1) * n * ad]
     }
 
     /// GAE(γ, λ) from the stored values and `last_values` (values of the observations after the last step),

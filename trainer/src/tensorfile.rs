@@ -9,6 +9,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use safetensors::tensor::{Dtype, TensorView};
 use safetensors::SafeTensors;
+use serde::de::DeserializeOwned;
+use serde::Deserialize;
 
 /// Named arrays to write.
 #[derive(Default)]
@@ -162,4 +164,54 @@ impl Loaded {
 /// CRC-32 of a file's bytes, recorded in sidecars so a changed or damaged weights file is caught.
 pub fn checksum(bytes: &[u8]) -> u32 {
     crc32fast::hash(bytes)
+}
+
+/// The fields by which every JSON sidecar we write names its format and its weights file.
+#[derive(Deserialize)]
+struct Header {
+    format: String,
+    version: u32,
+    weights: String,
+    weights_crc32: u32,
+}
+
+/// What a sidecar must be: its kind for messages ("checkpoint", "policy"), the format and version this build
+/// reads, and a hint to add when the file cannot be read.
+pub struct SidecarKind<'a> {
+    pub kind: &'a str,
+    pub format: &'a str,
+    pub version: u32,
+    pub hint: &'a str,
+}
+
+/// Reads a JSON sidecar and the safetensors file it names (beside it), validated in one way for every kind: the
+/// format and version first (so an old or foreign file says so, not that a field is missing), then the fields,
+/// then the weights' checksum.
+pub fn read_sidecar<T: DeserializeOwned>(json: &Path, k: &SidecarKind) -> Result<(T, Loaded)> {
+    let text = std::fs::read_to_string(json)
+        .with_context(|| format!("cannot read {} {}{}", k.kind, json.display(), k.hint))?;
+    let invalid = || format!("{} is not a valid {} sidecar", json.display(), k.kind);
+    let value: serde_json::Value = serde_json::from_str(&text).with_context(invalid)?;
+    let h: Header = serde_json::from_value(value.clone()).with_context(invalid)?;
+    if h.format != k.format || h.version != k.version {
+        bail!(
+            "{} is a '{}' v{} file; this build reads '{}' v{}",
+            json.display(),
+            h.format,
+            h.version,
+            k.format,
+            k.version
+        );
+    }
+    let side: T = serde_json::from_value(value).with_context(invalid)?;
+    let weights = json.parent().unwrap_or(Path::new(".")).join(&h.weights);
+    let loaded = Loaded::read(&weights)?;
+    if checksum(loaded.bytes()) != h.weights_crc32 {
+        bail!(
+            "{} does not match the checksum in {}: the file is corrupt or was replaced",
+            weights.display(),
+            json.display()
+        );
+    }
+    Ok((side, loaded))
 }

@@ -340,16 +340,8 @@ impl Trainer {
             // The policy acts: sampling and storing when it learns, its mean action when frozen.
             if policy_learns {
                 let r = &mut self.policy_rollout;
-                let k = r.next_step();
-                let out = ActOutput {
-                    obs_norm: &mut r.obs[k * n * od..(k + 1) * n * od],
-                    actions: &mut r.actions[k * n * ad..(k + 1) * n * ad],
-                    means: &mut r.means[k * n * ad..(k + 1) * n * ad],
-                    log_probs: &mut r.log_probs[k * n..(k + 1) * n],
-                    values: &mut r.values[k * n..(k + 1) * n],
-                };
-                self.policy.act(&s.raw_obs, &mut self.rng, true, out)?;
-                s.actions.copy_from_slice(&r.actions[k * n * ad..(k + 1) * n * ad]);
+                self.policy.act(&s.raw_obs, &mut self.rng, true, r.next_step())?;
+                s.actions.copy_from_slice(r.last_actions());
             } else {
                 let out = ActOutput {
                     obs_norm: &mut s.obs_norm,
@@ -366,16 +358,8 @@ impl Trainer {
                 let adv_obs = a.sees(&s.raw_obs, &mut s.adv_raw_obs, |e| e);
                 if phase == Phase::Adversary {
                     let r = self.adversary_rollout.as_mut().expect("adversary rollout");
-                    let k = r.next_step();
-                    let out = ActOutput {
-                        obs_norm: &mut r.obs[k * n * od..(k + 1) * n * od],
-                        actions: &mut r.actions[k * n * pd..(k + 1) * n * pd],
-                        means: &mut r.means[k * n * pd..(k + 1) * n * pd],
-                        log_probs: &mut r.log_probs[k * n..(k + 1) * n],
-                        values: &mut r.values[k * n..(k + 1) * n],
-                    };
-                    a.agent.act(adv_obs, &mut self.rng, true, out)?;
-                    s.adv_actions.copy_from_slice(&r.actions[k * n * pd..(k + 1) * n * pd]);
+                    a.agent.act(adv_obs, &mut self.rng, true, r.next_step())?;
+                    s.adv_actions.copy_from_slice(r.last_actions());
                 } else {
                     let out = ActOutput {
                         obs_norm: &mut s.adv_obs_norm,

@@ -41,11 +41,6 @@ impl Path {
         &self.pts
     }
 
-    /// Arc length of each point.
-    pub fn arc_lengths(&self) -> &[f64] {
-        &self.cum
-    }
-
     /// The segment `s` lies on (the last one at and beyond the end).
     fn segment(&self, s: f64) -> usize {
         match self.cum.binary_search_by(|c| c.total_cmp(&s)) {

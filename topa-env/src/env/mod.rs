@@ -232,9 +232,6 @@ impl RobotEnv {
     pub fn set_perturbation_struct(&mut self, p: Perturbation) {
         self.perturbation = p;
     }
-    pub fn episode_steps(&self) -> usize {
-        self.step_count
-    }
     /// The body-height reward's target: the config's, or the robot spec's where the config leaves it at 0.
     pub fn base_height_target(&self) -> f64 {
         let t = self.cfg.rewards.base_height_target;

@@ -14,7 +14,7 @@
 //! and slides); a swinging foot gets its measurement and process noise multiplied by `swing_scale`, so it
 //! neither pulls the base nor stays pinned where it was.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -235,11 +235,6 @@ impl ContactKf {
         self.p = p_new;
         true
     }
-}
-
-/// `[a]×`, the cross-product matrix.
-pub fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
 }
 
 #[cfg(test)]

@@ -273,6 +273,15 @@ pub fn gemm_kernel() -> &'static str {
     }
 }
 
+/// Threads to use: `n`, or every core for 0.
+pub fn resolve_threads(n: usize) -> usize {
+    if n == 0 {
+        std::thread::available_parallelism().map_or(1, |p| p.get())
+    } else {
+        n
+    }
+}
+
 /// Makes this module's kernels, candle (matmul and element-wise ops) and gemm all use `n` threads; see the
 /// module docs. Call once, first thing in `main`, before any candle op or rayon use and before spawning threads.
 /// Fails if the rayon global pool already exists with a different size. Also calls [`keep_freed_memory`].

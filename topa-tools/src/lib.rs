@@ -1,0 +1,20 @@
+//! The tools around the stack: a policy exported to ONNX (and checked against its source), what a model or a
+//! robot spec holds (`topa info`), the config reference generated from the config types, and the benchmarks
+//! behind `topa bench`, each printing ratios measured in one run.
+//!
+//! ```
+//! // A shipped C+A policy to ONNX, then checked: the graph's metadata names the policy's weights (their CRC).
+//! let policy = topa_env::assets::repo_dir().join("assets/policies/CA/seed1.json");
+//! let onnx = std::env::temp_dir().join(format!("topa-doc-{}.onnx", std::process::id()));
+//! let (obs, actions) = topa_tools::export::export(&policy, &onnx, false)?;
+//! assert_eq!((obs, actions), (42, 10)); // the paper's observation of a 10-motor robot
+//! topa_tools::export::check(&onnx, &policy)?;
+//! std::fs::remove_file(&onnx)?;
+//! # anyhow::Ok(())
+//! ```
+
+pub mod bench;
+pub mod config_reference;
+pub mod export;
+pub mod info;
+pub mod robot_info;
