@@ -169,7 +169,7 @@ fn course_video(
                 env,
                 o.video_size,
                 o.fps,
-                o.quality.unwrap_or(mujoco_sys::render::Quality::Fast),
+                o.quality.unwrap_or(mujoco::render::Quality::Fast),
             )?);
         }
         let v = rec.as_mut().unwrap();
@@ -219,7 +219,7 @@ fn terrain_video(
         &env,
         o.video_size,
         o.fps,
-        o.quality.unwrap_or(mujoco_sys::render::Quality::Fast),
+        o.quality.unwrap_or(mujoco::render::Quality::Fast),
     )?;
     let dt = cfg.policy_dt();
     let (settle, total) = ((s.settle_s / dt).round() as usize, ((s.settle_s + result.window_s) / dt).round() as usize);

@@ -18,7 +18,7 @@ fn attach(a: &mut ablate::Ablation, [field, terrain]: Attached) -> Result<()> {
         a.field = Some(field::load(f)?);
     }
     if let Some(t) = terrain {
-        a.terrain = Some(terrain_report::merge(&[t.to_path_buf()])?);
+        a.terrain = Some(terrain_report::load(t)?);
     }
     Ok(())
 }

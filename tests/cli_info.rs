@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("mujoco-sys/tests/fixtures").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("mujoco/tests/fixtures").join(name)
 }
 
 fn topa(args: &[&str]) -> std::process::Output {

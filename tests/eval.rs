@@ -67,7 +67,7 @@ fn constant_policy(dir: &Path, name: &str, model: ModelKind, action: [f32; N_MOT
 /// The action that sends the closed model's keyframe targets (nominal pose + gravity compensation): it stands.
 fn hold_action() -> [f32; N_MOTORS] {
     let m = assets::load_model(ModelKind::Closed).unwrap();
-    let key = m.id(mujoco_sys::ObjType::Key, topa_ref::STAND_KEY).unwrap();
+    let key = m.id(mujoco::ObjType::Key, topa_ref::STAND_KEY).unwrap();
     let nominal = topa_ref::nominal_motors();
     let scale = EnvConfig::default().action_scale;
     std::array::from_fn(|i| ((m.key_ctrl(key)[i] - nominal[i]) / scale) as f32)

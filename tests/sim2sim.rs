@@ -98,7 +98,7 @@ fn bad_sensor_values_reset_the_filter_with_a_warning_and_a_fall_stays_finite() {
     let idx = env.indices().clone();
     // The filter on its own, fed a NaN accelerometer reading: it refuses it, resets, says so, stays finite.
     let mut s = topa_env::sim2sim::Sim2Sim::new(Arc::new(cfg.sim2sim.clone()), model.clone(), &idx, 1, 0).unwrap();
-    let mut d = mujoco_sys::Data::new(model).unwrap();
+    let mut d = mujoco::Data::new(model).unwrap();
     d.reset_keyframe(idx.stand_key).unwrap();
     d.forward().unwrap();
     s.reset(&d, &idx, cfg.decimation).unwrap();
@@ -168,7 +168,7 @@ fn an_action_reaches_the_motors_after_the_configured_latency() {
     let env = RobotEnv::new(model.clone(), Arc::new(cfg.clone()), 1, 0).unwrap();
     let idx = env.indices().clone();
     let mut s = topa_env::sim2sim::Sim2Sim::new(Arc::new(cfg.sim2sim.clone()), model.clone(), &idx, 1, 0).unwrap();
-    let mut d = mujoco_sys::Data::new(model).unwrap();
+    let mut d = mujoco::Data::new(model).unwrap();
     d.reset_keyframe(idx.stand_key).unwrap();
     d.forward().unwrap();
     let initial = d.ctrl()[0];

@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use mujoco_sys::render::Renderer;
+use mujoco::render::Renderer;
 use topa_env::{assets, EnvConfig, ModelKind, RobotEnv, Task};
 use topa_eval::play::{self, PlayOptions};
 use topa_eval::settings::EvalSettings;
@@ -24,7 +24,7 @@ fn the_standing_robot_fills_the_middle_of_the_frame() {
     let mut env = RobotEnv::new(model.clone(), std::sync::Arc::new(EnvConfig::default()), 1, 0).unwrap();
     let mut obs = vec![0.0f32; 42];
     env.reset(&mut obs).unwrap();
-    let mut r = Renderer::new(model.clone(), 320, 240, mujoco_sys::render::Quality::High).unwrap();
+    let mut r = Renderer::new(model.clone(), 320, 240, mujoco::render::Quality::High).unwrap();
     r.track(env.indices().torso_body, 1.8, 150.0, -15.0);
     let frame = r.render(env.data_mut(), Some(("time", "0.00 s"))).unwrap().to_vec();
     assert_eq!(frame.len(), 320 * 240 * 3);

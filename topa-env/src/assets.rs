@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use mujoco_sys::Model;
+use mujoco::Model;
 
 use crate::config::EnvConfig;
 use crate::error::Result;

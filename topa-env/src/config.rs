@@ -542,7 +542,7 @@ impl EnvConfig {
     }
 
     /// The integrator to set on the model, or None to keep the model's.
-    pub fn integrator(&self) -> Option<mujoco_sys::Integrator> {
+    pub fn integrator(&self) -> Option<mujoco::Integrator> {
         self.integrator.resolve()
     }
 

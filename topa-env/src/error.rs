@@ -1,6 +1,6 @@
 //! Errors of the environment layer.
 
-use mujoco_sys::MujocoError;
+use mujoco::MujocoError;
 
 #[derive(Debug, thiserror::Error)]
 pub enum EnvError {

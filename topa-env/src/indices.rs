@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use mujoco_sys::{Model, ObjType};
+use mujoco::{Model, ObjType};
 
 use crate::error::Result;
 use crate::observation::ObsLayout;

@@ -24,8 +24,8 @@ impl IntegratorChoice {
         }
     }
     /// The override, or None to keep the model's.
-    pub fn resolve(self) -> Option<mujoco_sys::Integrator> {
-        use mujoco_sys::Integrator;
+    pub fn resolve(self) -> Option<mujoco::Integrator> {
+        use mujoco::Integrator;
         match self {
             IntegratorChoice::Model => None,
             IntegratorChoice::Euler => Some(Integrator::Euler),

@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 
-use mujoco_sys::{ffi, Data, Model, ObjType};
+use mujoco::{ConstraintType, Data, Model, ObjType};
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{EnvError, Result};
@@ -173,9 +173,9 @@ impl Linkage {
         let d = &self.data;
         let nv = d.model().nv();
         let jac = d.efc_jacobian().expect("the linkage's model stores its Jacobian dense");
-        let rows: Vec<usize> = (0..d.efc_type().len())
+        let rows: Vec<usize> = (0..d.nefc())
             .filter(|&i| {
-                d.efc_type()[i] == ffi::mjCNSTR_EQUALITY as i32 && self.equalities.contains(&(d.efc_id()[i] as usize))
+                d.efc_type(i) == ConstraintType::Equality && self.equalities.contains(&(d.efc_id()[i] as usize))
             })
             .collect();
         let r = DVector::from_iterator(rows.len(), rows.iter().map(|&i| d.efc_pos()[i]));

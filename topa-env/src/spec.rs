@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use mujoco_sys::{ffi, Model, ObjType};
+use mujoco::{JointType, Model, ObjType, Transmission};
 use serde::Deserialize;
 use toml::Spanned;
 
@@ -323,7 +323,7 @@ fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result
     };
     find(ObjType::Body, &raw.base_body, "body")?;
     let base = find(ObjType::Joint, &raw.base_joint, "joint")?;
-    if m.jnt_type()[base] != ffi::mjJNT_FREE as i32 {
+    if m.jnt_type(base) != JointType::Free {
         return Err(src.at(raw.base_joint.span(), format!("base_joint '{}' must be a free joint", spec.base_joint)));
     }
     find(ObjType::Geom, &raw.floor_geom, "geom")?;
@@ -359,7 +359,7 @@ fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result
         }
         let driven = find(ObjType::Joint, &r.drives, "joint")?;
         let joint = find(ObjType::Joint, &r.joint, "joint")?;
-        if m.actuator_trntype()[a] != ffi::mjTRN_JOINT as i32 || m.actuator_trnid()[a][0] != driven as i32 {
+        if m.actuator_trntype(a) != Transmission::Joint || m.actuator_trnid()[a][0] != driven as i32 {
             let got = m.name_of(ObjType::Joint, m.actuator_trnid()[a][0].max(0) as usize).unwrap_or("?");
             return Err(src
                 .at(r.drives.span(), format!("actuator '{}' drives joint '{got}', not '{}'", mm.actuator, mm.drives)));
@@ -439,7 +439,7 @@ fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result
                     format!("loop '{}': '{p}' is driven by an actuator, so it is not passive", l.name.get_ref()),
                 ));
             }
-            if m.jnt_type()[j] != ffi::mjJNT_HINGE as i32 && m.jnt_type()[j] != ffi::mjJNT_SLIDE as i32 {
+            if !matches!(m.jnt_type(j), JointType::Hinge | JointType::Slide) {
                 return Err(src.at(
                     l.passive.span(),
                     format!("loop '{}': passive joint '{p}' must be a hinge or a slide", l.name.get_ref()),

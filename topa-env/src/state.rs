@@ -1,7 +1,7 @@
 //! What the robot is doing right now, read off a `Data` in the robot's terms: base velocities in the torso
 //! frame, gravity direction, roll/pitch, motor and joint positions, velocities and motor torques, foot contacts.
 
-use mujoco_sys::Data;
+use mujoco::Data;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use crate::indices::RobotIndices;

@@ -51,9 +51,9 @@ pub struct StateMirror {
 const MIRROR_TOL: f64 = 1e-6;
 
 impl StateMirror {
-    pub fn new(model: &std::sync::Arc<mujoco_sys::Model>) -> crate::error::Result<Self> {
-        use mujoco_sys::{ffi, ObjType};
-        let mut d = mujoco_sys::Data::new(model.clone())?;
+    pub fn new(model: &std::sync::Arc<mujoco::Model>) -> crate::error::Result<Self> {
+        use mujoco::{JointType, ObjType};
+        let mut d = mujoco::Data::new(model.clone())?;
         d.kinematics()?;
         let (nq, nv) = (model.nq(), model.nv());
         let mut m = StateMirror {
@@ -62,12 +62,11 @@ impl StateMirror {
             qvel_perm: (0..nv).collect(),
             qvel_sign: vec![1.0; nv],
         };
-        let types = model.jnt_type();
         let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < MIRROR_TOL);
         for j in 0..model.njnt() {
             let (qa, da) = (model.jnt_qposadr_of(j), model.jnt_dofadr_of(j));
-            let t = types[j] as u32;
-            if t == ffi::mjJNT_FREE {
+            let t = model.jnt_type(j);
+            if t == JointType::Free {
                 // Position: y flips. Quaternion (w, x, y, z) of S R S with S = diag(1, −1, 1): x and z flip.
                 // World linear velocity: y flips; body angular velocity (a pseudo-vector): x and z flip.
                 for k in [1, 4, 6] {
@@ -79,7 +78,7 @@ impl StateMirror {
                 continue;
             }
             let name = || model.name_of(ObjType::Joint, j).unwrap_or("?").to_string();
-            if t == ffi::mjJNT_BALL {
+            if t == JointType::Ball {
                 return Err(crate::error::EnvError::Config(format!(
                     "joint '{}' is a ball joint: the state mirror handles hinge, slide and free joints",
                     name()
@@ -88,9 +87,9 @@ impl StateMirror {
             let [x, y, z] = d.xanchor()[j];
             let anchor = [x, -y, z];
             let [ax, ay, az] = d.xaxis()[j];
-            let axis = if t == ffi::mjJNT_HINGE { [-ax, ay, -az] } else { [ax, -ay, az] };
+            let axis = if t == JointType::Hinge { [-ax, ay, -az] } else { [ax, -ay, az] };
             let partner = (0..model.njnt()).find_map(|k| {
-                if types[k] != types[j] || !close(d.xanchor()[k], anchor) {
+                if model.jnt_type(k) != t || !close(d.xanchor()[k], anchor) {
                     return None;
                 }
                 let b = d.xaxis()[k];
@@ -128,7 +127,7 @@ impl StateMirror {
 
 /// Mirrors a full MuJoCo state in the XZ plane (see `StateMirror`; builds the map each call).
 pub fn mirror_mj_state(
-    model: &std::sync::Arc<mujoco_sys::Model>,
+    model: &std::sync::Arc<mujoco::Model>,
     qpos: &[f64],
     qvel: &[f64],
 ) -> crate::error::Result<(Vec<f64>, Vec<f64>)> {

@@ -11,7 +11,7 @@ use trainer::{SignedPermutation, Symmetry};
 
 use crate::error::{EnvError, Result};
 use crate::task::Task;
-use mujoco_sys::Model;
+use mujoco::Model;
 
 use crate::assets::load_robot;
 use crate::config::{EnvConfig, TaskKind};

@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 
-use mujoco_sys::{Model, ObjType};
+use mujoco::{Model, ObjType};
 
 use crate::error::{EnvError, Result};
 use crate::spec::RobotSpec;

@@ -6,7 +6,7 @@ mod common;
 
 use std::path::Path;
 
-use mujoco_sys::{Model, ObjType};
+use mujoco::{Model, ObjType};
 use rand::{RngExt, SeedableRng};
 use topa_env::linkage::Linkage;
 use topa_env::spec::RobotSpec;
@@ -115,7 +115,7 @@ fn a_keyframe_that_does_not_close_the_loops_is_refused_with_the_fix() {
 fn kestrel_simulates_with_its_loops_closed() {
     let (_, model, _) = kestrel();
     let eqs: Vec<usize> = (0..4).collect();
-    let mut d = mujoco_sys::Data::new(std::sync::Arc::new(model)).unwrap();
+    let mut d = mujoco::Data::new(std::sync::Arc::new(model)).unwrap();
     d.reset_keyframe(0).unwrap();
     let mut worst = 0.0f64;
     // 2 s holding the stand pose under PD, then 1 s with the ankle motors swinging against each other (roll

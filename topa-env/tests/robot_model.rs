@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use mujoco_sys::{ffi, Data, Model, ObjType};
+use mujoco::{Data, GeomType, Model, ObjType};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use topa_env::topa::{self, ModelKind, N_MOTORS};
@@ -59,7 +59,7 @@ fn closed_linkage_tracks_the_paper_coupling_under_random_motor_targets() {
 fn closed_linkage_holds_under_the_fast_training_solver() {
     let (mut model, idx) = load(ModelKind::Closed);
     let m = Arc::make_mut(&mut model);
-    m.set_integrator(mujoco_sys::Integrator::Euler);
+    m.set_integrator(mujoco::Integrator::Euler);
     m.set_solver_iterations(5);
     m.set_solver_tolerance(1e-6);
     linkage_holds(model, &idx, 2e-2);
@@ -71,7 +71,7 @@ fn closed_linkage_holds_under_the_fast_training_solver() {
 fn closed_linkage_holds_under_the_realistic_modes_euler_at_1_ms() {
     let (mut model, idx) = load(ModelKind::Closed);
     let m = Arc::make_mut(&mut model);
-    m.set_integrator(mujoco_sys::Integrator::Euler);
+    m.set_integrator(mujoco::Integrator::Euler);
     m.set_timestep(0.001).unwrap();
     linkage_holds(model, &idx, 2e-3);
 }
@@ -131,11 +131,11 @@ fn geom_top(m: &Model, d: &Data, g: usize) -> f64 {
     let (p, r, s) = (d.geom_xpos()[g], d.geom_xmat()[g], m.geom_size()[g]);
     // Row 2 of the rotation matrix: the world z of each geom axis.
     let az = [r[6].abs(), r[7].abs(), r[8].abs()];
-    p[2] + match m.geom_type()[g] as u32 {
-        ffi::mjGEOM_SPHERE => s[0],
-        ffi::mjGEOM_CAPSULE => s[0] + s[1] * az[2],
-        ffi::mjGEOM_CYLINDER => s[0] * (1.0 - az[2] * az[2]).sqrt() + s[1] * az[2],
-        ffi::mjGEOM_PLANE => f64::MIN,
+    p[2] + match m.geom_type(g) {
+        GeomType::Sphere => s[0],
+        GeomType::Capsule => s[0] + s[1] * az[2],
+        GeomType::Cylinder => s[0] * (1.0 - az[2] * az[2]).sqrt() + s[1] * az[2],
+        GeomType::Plane => f64::MIN,
         _ => s[0] * az[0] + s[1] * az[1] + s[2] * az[2],
     }
 }

@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use mujoco_sys::{Model, ObjType};
+use mujoco::{Model, ObjType};
 use topa_env::symmetry::StateMirror;
 
 fn model(rel: &str) -> Arc<Model> {

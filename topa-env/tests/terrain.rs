@@ -50,12 +50,12 @@ fn feet_touch_the_measured_ground(contacts: BoxContacts) {
     e.reset(&mut obs).unwrap();
     assert!(!stand(&mut e, 15), "the robot fell standing on rough ground ({contacts:?})");
     let d = e.data();
-    let field = d.model().id(mujoco_sys::ObjType::Geom, TERRAIN_NAME).unwrap();
+    let field = d.model().id(mujoco::ObjType::Geom, TERRAIN_NAME).unwrap();
     let touching: Vec<_> =
         d.contacts().iter().filter(|c| c.geom1 as usize == field || c.geom2 as usize == field).collect();
     assert!(touching.len() >= 2, "{} contacts with the terrain ({contacts:?})", touching.len());
     if contacts == BoxContacts::Vertices {
-        assert!(touching.len() <= 2 * mujoco_sys::hfield_box::MAX_CONTACTS, "{} contacts", touching.len());
+        assert!(touching.len() <= 2 * mujoco::hfield_box::MAX_CONTACTS, "{} contacts", touching.len());
     }
     for c in touching {
         let ground = map.height_at(c.pos[0], c.pos[1]);

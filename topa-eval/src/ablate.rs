@@ -14,6 +14,7 @@ use super::report;
 use super::results::{one, Group, PolicyResults, PushGrid};
 use super::settings::EvalSettings;
 use super::tracking;
+use crate::merge::Mergeable;
 use topa_env::policy_runner::PolicyRunner;
 
 /// How much of each experiment to run.
@@ -132,73 +133,44 @@ pub fn run(policies: &[(Group, PathBuf)], settings: &EvalSettings, extent: &Exte
     Ok(Ablation { settings: settings.clone(), extent: extent.clone(), results, field: None, terrain: None })
 }
 
-/// Joins ablations written by earlier runs (`ablation.json`: one per policy, per machine or per session — each
-/// policy's numbers do not depend on the others, its noise streams come from the seed alone) into one; one file is
-/// rendered again (to attach a field or terrain test to it); the first file's attachments are kept. Refused
-/// when a file is not an ablation, when the protocols or evaluation settings differ (thread count aside: results do
-/// not depend on it), or when one policy file appears twice (it would count as two seeds).
+/// Joins ablations of the same protocol and settings (`--merge`, the rule of every report: `crate::merge`);
+/// the attached field and terrain reports stay with the first file's (`--field` / `--terrain` replace them).
 pub fn merge(files: &[PathBuf]) -> Result<Ablation> {
-    ensure!(!files.is_empty(), "--merge takes one or more ablation.json files");
-    let mut parts = Vec::new();
-    for f in files {
-        let text = std::fs::read_to_string(f).with_context(|| format!("--merge: cannot read {}", f.display()))?;
-        let a: Ablation = serde_json::from_str(&text).with_context(|| {
-            format!("--merge: {} is not an ablation.json written by `topa ablate` (give that file)", f.display())
-        })?;
-        parts.push((f, a));
-    }
-    let (first_file, first) = &parts[0];
-    let mut results: Vec<PolicyResults> = Vec::new();
-    for (f, a) in &parts {
-        ensure!(
-            a.extent == first.extent,
-            "--merge: {} was run with another protocol ({}) than {} ({}); re-run one of them with the other's flags",
-            f.display(),
-            a.extent.describe(),
-            first_file.display(),
-            first.extent.describe()
-        );
-        ensure!(
-            a.settings.same_results_as(&first.settings)?,
-            "--merge: {} was run with other evaluation settings (timestep, sim2sim, integrator, settle time or seed) \
-             than {}; merge only runs made with the same flags",
-            f.display(),
-            first_file.display()
-        );
-        for r in &a.results {
-            check_still_current(f, r)?;
-            ensure!(
-                !results.iter().any(|q| q.policy == r.policy),
-                "--merge: policy {} is in more than one file ({} among them); it would count as two seeds",
-                r.policy.display(),
-                f.display()
-            );
-            results.push(r.clone());
-        }
-    }
-    results.sort_by_key(|r| r.name); // the report's order: O, C, CA
-                                     // Attached reports stay with the report they were attached to (the first file's); --field / --terrain replace them.
-    let (field, terrain) = (first.field.clone(), first.terrain.clone());
-    Ok(Ablation { settings: first.settings.clone(), extent: first.extent.clone(), results, field, terrain })
+    crate::merge::merge(files)
 }
 
-/// Refuses a result whose policy file, still at its path, now holds other weights than the ones measured (a seed
-/// retrained in place after its ablation ran); a file not on this machine, or a result written before weights
-/// were recorded, is let through.
-fn check_still_current(file: &Path, r: &PolicyResults) -> Result<()> {
-    let Some(measured) = r.weights_crc32 else { return Ok(()) };
-    if !r.policy.exists() {
-        return Ok(());
+impl Mergeable for Ablation {
+    const FILE: &'static str = "ablation.json";
+    const COMMAND: &'static str = "topa ablate";
+
+    fn protocol(&self) -> (serde_json::Value, String) {
+        (serde_json::to_value(&self.extent).unwrap_or_default(), self.extent.describe())
     }
-    let now = trainer::policy_file::Policy::load(&r.policy)?.meta.weights_crc32;
-    ensure!(
-        now == measured,
-        "--merge: {} measured {} with weights of CRC-32 {measured:08x}, but that policy now holds {now:08x} \
-         (retrained or replaced): run `topa ablate` on it again",
-        file.display(),
-        r.policy.display()
-    );
-    Ok(())
+
+    fn settings(&self) -> Option<&EvalSettings> {
+        Some(&self.settings)
+    }
+
+    fn measured(&self) -> Vec<(PathBuf, Option<u32>)> {
+        measured_weights(self)
+    }
+
+    fn absorb(&mut self, part: Ablation, file: &Path) -> Result<()> {
+        for r in part.results {
+            ensure!(
+                !self.results.iter().any(|q| q.policy == r.policy),
+                "--merge: policy {} is in more than one file ({} among them); it would count as two seeds",
+                r.policy.display(),
+                file.display()
+            );
+            self.results.push(r);
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self) {
+        self.results.sort_by_key(|r| r.name); // the report's order: O, C, CA
+    }
 }
 
 /// Each result's policy file with the CRC-32 of the weights it measured (where recorded).

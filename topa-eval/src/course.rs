@@ -8,7 +8,7 @@
 use std::collections::HashSet;
 
 use anyhow::Result;
-use mujoco_sys::ObjType;
+use mujoco::ObjType;
 use serde::{Deserialize, Serialize};
 use topa_env::course::{Course, WALL_PREFIX};
 use topa_env::policy_runner::PolicyRunner;

@@ -3,6 +3,7 @@
 //! reach the goal, finish clean, the best clean time, joint-limit hits and the endurance interventions, with the
 //! paper's numbers beside; and the paper's three real-world claims, each answered yes or no with the numbers.
 
+use crate::merge::Mergeable;
 use std::path::{Path, PathBuf};
 
 use anyhow::{ensure, Context, Result};
@@ -84,71 +85,75 @@ pub fn run(policies: &[(Group, PathBuf)], base: &EvalSettings, extent: &FieldExt
     Ok(Field { extent: extent.clone(), settings: base.clone(), results })
 }
 
-/// Joins field.json files of earlier runs: one per policy, per mode or both (same course, speeds, minutes,
-/// operator and settings). A policy's modes from several files are joined; a (policy, mode) pair twice is refused.
+/// Joins field tests of the same course, speeds, minutes and settings (`--merge`, the rule of every report:
+/// `crate::merge`); a policy's runs in other sim2sim modes join its modes.
 pub fn merge(files: &[PathBuf]) -> Result<Field> {
-    ensure!(files.len() >= 2, "--merge takes at least two field.json files");
-    let mut out: Option<Field> = None;
-    for f in files {
-        let text = std::fs::read_to_string(f).with_context(|| format!("--merge: cannot read {}", f.display()))?;
-        let part: Field = serde_json::from_str(&text)
-            .with_context(|| format!("--merge: {} is not a field.json written by `topa field`", f.display()))?;
-        let Some(all) = &mut out else {
-            out = Some(part);
-            continue;
-        };
-        let modeless = |e: &FieldExtent| FieldExtent { modes: Vec::new(), ..e.clone() };
-        ensure!(
-            modeless(&part.extent) == modeless(&all.extent) && part.settings.same_results_as(&all.settings)?,
-            "--merge: {} was run with another course, speeds, minutes or evaluation settings (timestep, \
-             integrator, settle time, seed); merge like runs only",
-            f.display()
+    crate::merge::merge(files)
+}
+
+impl Mergeable for Field {
+    const FILE: &'static str = "field.json";
+    const COMMAND: &'static str = "topa field";
+
+    fn protocol(&self) -> (serde_json::Value, String) {
+        let e = FieldExtent { modes: Vec::new(), ..self.extent.clone() };
+        let text = format!(
+            "course {}, speeds {:?} m/s, {} endurance minutes",
+            e.course.display(),
+            e.speeds,
+            e.endurance_minutes
         );
+        (serde_json::to_value(&e).unwrap_or_default(), text)
+    }
+
+    fn settings(&self) -> Option<&EvalSettings> {
+        Some(&self.settings)
+    }
+
+    fn measured(&self) -> Vec<(PathBuf, Option<u32>)> {
+        self.results.iter().map(|r| (r.policy.clone(), r.weights_crc32)).collect()
+    }
+
+    fn absorb(&mut self, part: Field, _file: &Path) -> Result<()> {
         for mode in &part.extent.modes {
-            if !all.extent.modes.contains(mode) {
-                all.extent.modes.push(mode.clone());
+            if !self.extent.modes.contains(mode) {
+                self.extent.modes.push(mode.clone());
             }
         }
         for r in part.results {
-            match all.results.iter_mut().find(|q| q.policy == r.policy) {
-                None => all.results.push(r),
-                Some(q) => {
-                    ensure!(q.name == r.name, "--merge: {} is in two groups", r.policy.display());
-                    ensure!(
-                        q.weights_crc32.is_none() || r.weights_crc32.is_none() || q.weights_crc32 == r.weights_crc32,
-                        "--merge: {} was measured with other weights in {} than in an earlier file (retrained in \
-                         between?); run `topa field` on the current policy again",
-                        r.policy.display(),
-                        f.display()
-                    );
-                    // A file written before reports recorded weights says nothing: keep the one that does.
-                    q.weights_crc32 = q.weights_crc32.or(r.weights_crc32);
-                    for m in r.modes {
-                        ensure!(
-                            !q.modes.iter().any(|x| x.sim2sim == m.sim2sim),
-                            "--merge: policy {} in {} sim2sim is in more than one file; it would count as two seeds",
-                            r.policy.display(),
-                            m.sim2sim
-                        );
-                        q.modes.push(m);
-                    }
-                }
+            let Some(q) = self.results.iter_mut().find(|q| q.policy == r.policy) else {
+                self.results.push(r);
+                continue;
+            };
+            ensure!(q.name == r.name, "--merge: {} is in two groups", r.policy.display());
+            // A file written before reports recorded weights says nothing: keep the one that does.
+            q.weights_crc32 = q.weights_crc32.or(r.weights_crc32);
+            for m in r.modes {
+                ensure!(
+                    !q.modes.iter().any(|x| x.sim2sim == m.sim2sim),
+                    "--merge: policy {} in {} sim2sim is in more than one file; it would count as two seeds",
+                    r.policy.display(),
+                    m.sim2sim
+                );
+                q.modes.push(m);
             }
         }
+        Ok(())
     }
-    let mut all = out.unwrap();
-    // Ideal before realistic before files, whatever order the parts came in.
-    let rank = |m: &Sim2SimMode| match m {
-        Sim2SimMode::Ideal => 0,
-        Sim2SimMode::Realistic => 1,
-        Sim2SimMode::File(_) => 2,
-    };
-    all.extent.modes.sort_by_key(rank);
-    for r in &mut all.results {
-        r.modes.sort_by_key(|m| rank(&m.sim2sim));
+
+    fn finish(&mut self) {
+        // Ideal before realistic before files, whatever order the parts came in.
+        let rank = |m: &Sim2SimMode| match m {
+            Sim2SimMode::Ideal => 0,
+            Sim2SimMode::Realistic => 1,
+            Sim2SimMode::File(_) => 2,
+        };
+        self.extent.modes.sort_by_key(rank);
+        for r in &mut self.results {
+            r.modes.sort_by_key(|m| rank(&m.sim2sim));
+        }
+        self.results.sort_by_key(|r| r.name);
     }
-    all.results.sort_by_key(|r| r.name);
-    Ok(all)
 }
 
 /// Reads a field.json.
@@ -525,7 +530,7 @@ mod tests {
         let mut other = field(vec![policy(Group::CA, "ca1", vec![], 0)]);
         other.extent.endurance_minutes = 10.0;
         let o = write("o.json", &other);
-        assert!(format!("{:#}", merge(&[a, o]).unwrap_err()).contains("another course"));
+        assert!(format!("{:#}", merge(&[a, o]).unwrap_err()).contains("another protocol (course"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

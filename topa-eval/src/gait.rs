@@ -72,7 +72,7 @@ impl GaitAccumulator {
             let site = idx.foot_sites[f];
             let height = d.site_xpos()[site][2];
             if contact[f] {
-                let v = d.object_velocity(mujoco_sys::ObjType::Site, site, false);
+                let v = d.object_velocity(mujoco::ObjType::Site, site, false);
                 self.slip_sum += v[3].hypot(v[4]) * dt;
                 match self.contact[f] {
                     Some(false) => {

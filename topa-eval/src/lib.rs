@@ -31,6 +31,7 @@ pub mod gait;
 pub mod groups;
 pub mod heatmaps;
 pub mod intervals;
+pub mod merge;
 mod nan_json;
 pub mod noise;
 pub mod play;

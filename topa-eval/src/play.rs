@@ -24,7 +24,7 @@ pub struct PlayOptions {
     pub video: Option<PathBuf>,
     pub video_size: (usize, usize),
     pub fps: u32,
-    pub quality: Option<mujoco_sys::render::Quality>,
+    pub quality: Option<mujoco::render::Quality>,
     /// Constant force on the torso in its own frame from the command's start, N (the push experiment's cells).
     pub torso_force: Option<[f64; 2]>,
 }
@@ -107,7 +107,7 @@ pub fn run(policy: &std::path::Path, o: &PlayOptions, settings: &EvalSettings) -
             &env,
             o.video_size,
             o.fps,
-            o.quality.unwrap_or(mujoco_sys::render::Quality::Fast),
+            o.quality.unwrap_or(mujoco::render::Quality::Fast),
         )?),
         None => None,
     };

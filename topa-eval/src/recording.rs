@@ -9,7 +9,7 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use mujoco_sys::{ffi, Data, Model, ObjType};
+use mujoco::{Data, GeomType, Model, ObjType};
 use serde_json::{json, Value};
 
 /// JSON schemas of the Foxglove message types we write (the fields we use).
@@ -118,13 +118,13 @@ impl Recorder {
             for g in first..first + model.body_geomnum()[b] as usize {
                 let (p, q, s, c) =
                     (model.geom_pos()[g], model.geom_quat()[g], model.geom_size()[g], color(model.geom_rgba()[g]));
-                match model.geom_type()[g] as u32 {
-                    ffi::mjGEOM_PLANE => cubes.push(json!({"pose": pose(p, q), "size": {"x": 10.0, "y": 10.0, "z": 0.001}, "color": {"r": 0.6, "g": 0.6, "b": 0.65, "a": 1.0}})),
-                    ffi::mjGEOM_BOX => cubes.push(json!({"pose": pose(p, q), "size": {"x": 2.0 * s[0], "y": 2.0 * s[1], "z": 2.0 * s[2]}, "color": c})),
-                    ffi::mjGEOM_SPHERE => spheres.push(json!({"pose": pose(p, q), "size": {"x": 2.0 * s[0], "y": 2.0 * s[0], "z": 2.0 * s[0]}, "color": c})),
-                    ffi::mjGEOM_CYLINDER | ffi::mjGEOM_CAPSULE => {
+                match model.geom_type(g) {
+                    GeomType::Plane => cubes.push(json!({"pose": pose(p, q), "size": {"x": 10.0, "y": 10.0, "z": 0.001}, "color": {"r": 0.6, "g": 0.6, "b": 0.65, "a": 1.0}})),
+                    GeomType::Box => cubes.push(json!({"pose": pose(p, q), "size": {"x": 2.0 * s[0], "y": 2.0 * s[1], "z": 2.0 * s[2]}, "color": c})),
+                    GeomType::Sphere => spheres.push(json!({"pose": pose(p, q), "size": {"x": 2.0 * s[0], "y": 2.0 * s[0], "z": 2.0 * s[0]}, "color": c})),
+                    GeomType::Cylinder | GeomType::Capsule => {
                         cylinders.push(json!({"pose": pose(p, q), "size": {"x": 2.0 * s[0], "y": 2.0 * s[0], "z": 2.0 * s[1]}, "bottom_scale": 1.0, "top_scale": 1.0, "color": c}));
-                        if model.geom_type()[g] as u32 == ffi::mjGEOM_CAPSULE {
+                        if model.geom_type(g) == GeomType::Capsule {
                             // Capsule caps: spheres at ± half-length along the geom's z axis.
                             let rot = topa_env::state::quat_of(&q);
                             for sign in [-1.0, 1.0] {

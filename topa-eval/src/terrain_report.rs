@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{ensure, Result};
+use anyhow::{ensure, Context, Result};
 use serde::{Deserialize, Serialize};
 use topa_env::policy_runner::PolicyRunner;
 
@@ -15,6 +15,7 @@ use super::intervals::{self, Resampling, Scores};
 use super::results::Group;
 use super::settings::EvalSettings;
 use super::terrain::{self, TerrainResult};
+use crate::merge::Mergeable;
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -38,6 +39,9 @@ pub struct TerrainReport {
     pub levels: usize,
     pub runs: usize,
     pub window_s: f64,
+    /// The evaluation settings (absent in reports written before they were recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub settings: Option<EvalSettings>,
     pub entries: Vec<TerrainEntry>,
 }
 
@@ -57,7 +61,7 @@ pub fn run(policies: &[(Group, PathBuf)], settings: &EvalSettings, p: &terrain::
         let policy = path.clone();
         entries.push(TerrainEntry { group: *group, policy, weights_crc32, trained_on_terrain, height_scan, result });
     }
-    Ok(TerrainReport { levels, runs, window_s, entries })
+    Ok(TerrainReport { levels, runs, window_s, settings: Some(settings.clone()), entries })
 }
 
 fn ground(on_terrain: bool) -> &'static str {
@@ -68,46 +72,60 @@ fn ground(on_terrain: bool) -> &'static str {
     }
 }
 
-/// Joins reports of the same protocol (e.g. one per policy); the same policy twice is refused.
+/// Joins terrain reports of the same protocol and settings (`--merge`, the rule of every report:
+/// `crate::merge`), e.g. one per policy.
 pub fn merge(files: &[PathBuf]) -> Result<TerrainReport> {
-    ensure!(!files.is_empty(), "give terrain.json files to merge");
-    let mut out: Option<TerrainReport> = None;
-    for f in files {
-        let text = std::fs::read_to_string(f).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", f.display()))?;
-        let r: TerrainReport = serde_json::from_str(&text)
-            .map_err(|e| anyhow::anyhow!("{} is not a terrain report (topa terrain writes one): {e}", f.display()))?;
-        match &mut out {
-            None => out = Some(r),
-            Some(o) => {
-                ensure!(
-                    (o.levels, o.runs, o.window_s) == (r.levels, r.runs, r.window_s),
-                    "{} was made with another protocol (levels, runs, seconds) than the first file",
-                    f.display()
-                );
-                let tiles = |x: &TerrainReport| {
-                    x.entries.first().map(|e| {
-                        let t = &e.result.terrain;
-                        (t.types.clone(), t.resolution, t.contacts)
-                    })
-                };
-                ensure!(
-                    tiles(o) == tiles(&r) || r.entries.is_empty(),
-                    "{} was made on other tiles (types, resolution or box contacts) than the first file",
-                    f.display()
-                );
-                for e in r.entries {
-                    ensure!(
-                        !o.entries.iter().any(|x| x.policy == e.policy),
-                        "{} appears twice ({})",
-                        e.policy.display(),
-                        f.display()
-                    );
-                    o.entries.push(e);
-                }
-            }
-        }
+    crate::merge::merge(files)
+}
+
+/// Reads a terrain.json (to attach to an ablation).
+pub fn load(file: &Path) -> Result<TerrainReport> {
+    let text = std::fs::read_to_string(file).with_context(|| format!("--terrain: cannot read {}", file.display()))?;
+    serde_json::from_str(&text)
+        .with_context(|| format!("--terrain: {} is not a terrain.json written by `topa terrain`", file.display()))
+}
+
+impl Mergeable for TerrainReport {
+    const FILE: &'static str = "terrain.json";
+    const COMMAND: &'static str = "topa terrain";
+
+    fn protocol(&self) -> (serde_json::Value, String) {
+        // The tiles are the terrain's, recorded in each result.
+        let tiles = self.entries.first().map(|e| {
+            let t = &e.result.terrain;
+            (t.types.clone(), t.resolution, t.contacts)
+        });
+        let key = serde_json::json!([self.levels, self.runs, self.window_s, tiles]);
+        let text = format!(
+            "{} levels, {} runs, {} s; tiles {}",
+            self.levels,
+            self.runs,
+            self.window_s,
+            tiles.map_or("none".into(), |(types, r, c)| format!("{types:?} at {r} m, {c:?} contacts"))
+        );
+        (key, text)
     }
-    Ok(out.expect("at least one file"))
+
+    fn settings(&self) -> Option<&EvalSettings> {
+        self.settings.as_ref()
+    }
+
+    fn measured(&self) -> Vec<(PathBuf, Option<u32>)> {
+        self.entries.iter().map(|e| (e.policy.clone(), e.weights_crc32)).collect()
+    }
+
+    fn absorb(&mut self, part: TerrainReport, file: &Path) -> Result<()> {
+        for e in part.entries {
+            ensure!(
+                !self.entries.iter().any(|x| x.policy == e.policy),
+                "--merge: policy {} is in more than one file ({} among them); it would count as two seeds",
+                e.policy.display(),
+                file.display()
+            );
+            self.entries.push(e);
+        }
+        Ok(())
+    }
 }
 
 /// One row of the report: a group's seeds of one ground and one sense.

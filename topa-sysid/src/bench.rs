@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{ensure, Context, Result};
-use mujoco_sys::{Data, Model, ObjType};
+use mujoco::{Data, Model, ObjType};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use topa_env::sim2sim::actuators::ActuatorConfig;
@@ -113,16 +113,16 @@ impl Bench {
                     actuators.join(", ")
                 )
             })?;
-            let [kind, joint] = [model.actuator_trntype()[a], model.actuator_trnid()[a][0]];
+            let (kind, joint) = (model.actuator_trntype(a), model.actuator_trnid()[a][0]);
             ensure!(
-                kind == mujoco_sys::ffi::mjTRN_JOINT as i32,
+                kind == mujoco::Transmission::Joint,
                 "actuator {} of {} must drive a joint",
                 m.name,
                 path.display()
             );
             let joint = joint as usize;
             ensure!(
-                model.jnt_type()[joint] == mujoco_sys::ffi::mjJNT_HINGE as i32,
+                model.jnt_type(joint) == mujoco::JointType::Hinge,
                 "actuator {} of {} drives a joint that is not a hinge",
                 m.name,
                 path.display()
@@ -312,7 +312,7 @@ fn trees(model: &Model, motors: &[BenchMotor]) -> Vec<usize> {
     let mut group: Vec<usize> = (0..model.nbody()).map(top).collect();
     for e in 0..model.neq() {
         let body = |id: i32| -> usize {
-            if model.eq_type()[e] == mujoco_sys::ffi::mjEQ_JOINT as i32 {
+            if model.eq_type(e) == mujoco::EqualityType::Joint {
                 model.jnt_bodyid()[id as usize] as usize
             } else {
                 id as usize

@@ -254,10 +254,10 @@ pub fn plot(bench: &Bench, log: &MotorLog, span: Window, start: &Params, fitted:
 /// The bench MJCF with the identified joint values and the torque constant folded into the actuator gains, as a new
 /// file (MuJoCo writes it flattened).
 pub fn write_patched_mjcf(bench: &Path, params: &Params, motors: &[String], out: &Path) -> Result<()> {
-    let mut m = mujoco_sys::Model::from_xml_path(bench)?;
+    let mut m = mujoco::Model::from_xml_path(bench)?;
     let mut pairs = Vec::new();
     for name in motors {
-        let a = m.id(mujoco_sys::ObjType::Actuator, name)?;
+        let a = m.id(mujoco::ObjType::Actuator, name)?;
         pairs.push((m.jnt_dofadr_of(m.actuator_trnid()[a][0] as usize), a));
     }
     params.actuators(&(0..pairs.len()).collect::<Vec<_>>()).put(&mut m, &pairs);

@@ -6,7 +6,7 @@ use std::path::Path;
 use std::sync::Mutex;
 
 use anyhow::{Context, Result};
-use mujoco_sys::{Model, ObjType};
+use mujoco::{Model, ObjType};
 use topa_env::linkage::Linkage;
 use topa_env::spec::RobotSpec;
 use xmltree::{Element, EmitterConfig, XMLNode};
@@ -36,7 +36,7 @@ pub fn hung_bench(spec_path: &Path, log: &MotorLog) -> Result<Bench> {
     model.set_sensors_enabled(false);
     let step = log.step();
     model.set_timestep(step / (step / MAX_TIMESTEP).ceil())?;
-    model.set_integrator(mujoco_sys::Integrator::Euler);
+    model.set_integrator(mujoco::Integrator::Euler);
     let motors = Bench::motors_of(&model, spec_path, log)?;
 
     // The fixed model's joints in the free model's qpos (same names; the free model has the base in front).

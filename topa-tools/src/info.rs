@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use anyhow::Result;
-use mujoco_sys::{equality_type_name, ffi, Model, ObjType};
+use mujoco::{EqualityType, Model, ObjType, Transmission};
 use serde::Serialize;
 
 #[derive(Debug, Serialize)]
@@ -69,23 +69,13 @@ fn name_or_id(m: &Model, kind: ObjType, id: i32) -> String {
     m.name_of(kind, id as usize).map_or_else(|| format!("#{id}"), str::to_string)
 }
 
-fn joint_type_name(t: i32) -> &'static str {
-    match t as u32 {
-        ffi::mjJNT_FREE => "free",
-        ffi::mjJNT_BALL => "ball",
-        ffi::mjJNT_SLIDE => "slide",
-        ffi::mjJNT_HINGE => "hinge",
-        _ => "unknown",
-    }
-}
-
 fn actuator_target(m: &Model, a: usize) -> String {
     let id = m.actuator_trnid()[a][0];
-    match m.actuator_trntype()[a] as u32 {
-        ffi::mjTRN_JOINT | ffi::mjTRN_JOINTINPARENT => format!("joint {}", name_or_id(m, ObjType::Joint, id)),
-        ffi::mjTRN_SLIDERCRANK => format!("slider-crank site {}", name_or_id(m, ObjType::Site, id)),
-        ffi::mjTRN_SITE => format!("site {}", name_or_id(m, ObjType::Site, id)),
-        _ => format!("tendon #{id}"),
+    match m.actuator_trntype(a) {
+        Transmission::Joint | Transmission::JointInParent => format!("joint {}", name_or_id(m, ObjType::Joint, id)),
+        Transmission::SliderCrank => format!("slider-crank site {}", name_or_id(m, ObjType::Site, id)),
+        Transmission::Site => format!("site {}", name_or_id(m, ObjType::Site, id)),
+        Transmission::Tendon => format!("tendon #{id}"),
     }
 }
 
@@ -93,13 +83,13 @@ pub fn summarize(path: &Path) -> Result<ModelSummary> {
     let m = Model::from_xml_path(path)?;
     let equality = (0..m.neq())
         .map(|i| {
-            let t = m.eq_type()[i];
+            let t = m.eq_type(i);
             // Which kind of object an equality ties depends on its type.
-            let obj_kind = match t as u32 {
-                ffi::mjEQ_JOINT => Some(ObjType::Joint),
-                ffi::mjEQ_CONNECT | ffi::mjEQ_WELD => Some(ObjType::Body),
-                ffi::mjEQ_DISTANCE => Some(ObjType::Geom),
-                _ => None,
+            let obj_kind = match t {
+                EqualityType::Joint => Some(ObjType::Joint),
+                EqualityType::Connect | EqualityType::Weld => Some(ObjType::Body),
+                EqualityType::Distance => Some(ObjType::Geom),
+                EqualityType::Tendon => None,
             };
             let show = |id: i32| match obj_kind {
                 Some(k) => name_or_id(&m, k, id),
@@ -107,7 +97,7 @@ pub fn summarize(path: &Path) -> Result<ModelSummary> {
             };
             EqualitySummary {
                 name: m.name_of(ObjType::Equality, i).unwrap_or("").to_string(),
-                kind: equality_type_name(t).to_string(),
+                kind: t.to_string(),
                 object_kind: obj_kind.map_or("tendon".into(), |k| k.to_string()),
                 obj1: show(m.eq_obj1id()[i]),
                 obj2: show(m.eq_obj2id()[i]),
@@ -118,7 +108,7 @@ pub fn summarize(path: &Path) -> Result<ModelSummary> {
     let joint_list = (0..m.njnt())
         .map(|j| JointSummary {
             name: name_or_id(&m, ObjType::Joint, j as i32),
-            kind: joint_type_name(m.jnt_type()[j]).to_string(),
+            kind: m.jnt_type(j).to_string(),
             body: name_or_id(&m, ObjType::Body, m.jnt_bodyid()[j]),
             qposadr: m.jnt_qposadr_of(j),
             dofadr: m.jnt_dofadr_of(j),
@@ -136,7 +126,7 @@ pub fn summarize(path: &Path) -> Result<ModelSummary> {
     Ok(ModelSummary {
         file: path.display().to_string(),
         model: m.name().to_string(),
-        mujoco_version: mujoco_sys::version_string(),
+        mujoco_version: mujoco::version_string(),
         nq: m.nq(),
         nv: m.nv(),
         nu: m.nu(),

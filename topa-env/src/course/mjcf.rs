@@ -12,7 +12,7 @@ use std::fmt::Write;
 
 use std::sync::Arc;
 
-use mujoco_sys::{Model, ObjType};
+use mujoco::{Model, ObjType};
 
 use super::path::dist;
 use super::{Course, WALL_PREFIX};

@@ -57,13 +57,13 @@ fn the_course_compiles_with_the_robot_and_its_feet_get_the_material_friction() {
     let spec = crate::spec::RobotSpec::load(&crate::assets::resolve_path("assets/robots/topa_closed.toml")).unwrap().0;
     let c = Course::parse(INDOOR).unwrap();
     let (m, map) = c.compile(&spec).unwrap();
-    let floor = m.id(mujoco_sys::ObjType::Geom, &spec.floor_geom).unwrap();
+    let floor = m.id(mujoco::ObjType::Geom, &spec.floor_geom).unwrap();
     assert_eq!(m.geom_friction()[floor][0], crate::world::MAPPED_FLOOR_FRICTION);
     assert_eq!(m.geom_conaffinity()[floor], 1, "the robot's floor stays the ground");
     assert_eq!((map.at([5.0, 0.0]), map.at([20.0, 8.0])), (0.45, 0.65));
-    let patch = m.id(mujoco_sys::ObjType::Geom, "course_floor0").unwrap();
+    let patch = m.id(mujoco::ObjType::Geom, "course_floor0").unwrap();
     assert_eq!(m.geom_conaffinity()[patch], 0, "patches are drawn, the map carries their friction");
-    let walls = m.names(mujoco_sys::ObjType::Geom).iter().filter(|n| n.starts_with(WALL_PREFIX)).count();
+    let walls = m.names(mujoco::ObjType::Geom).iter().filter(|n| n.starts_with(WALL_PREFIX)).count();
     assert_eq!(walls, c.walls.len());
 }
 
@@ -73,17 +73,16 @@ fn a_robot_pushed_into_a_wall_touches_it_and_the_wall_counts_as_ground() {
     let spec = crate::spec::RobotSpec::load(&crate::assets::resolve_path("assets/robots/topa_closed.toml")).unwrap().0;
     let c = Course::parse(INDOOR).unwrap();
     let (m, _) = c.compile(&spec).unwrap();
-    let wall = m.id(mujoco_sys::ObjType::Geom, &format!("{WALL_PREFIX}0")).unwrap();
+    let wall = m.id(mujoco::ObjType::Geom, &format!("{WALL_PREFIX}0")).unwrap();
     assert_ne!(m.geom_bodyid()[wall], 0, "a wall has a body of its own");
     assert!(crate::world::is_ground(&m, wall));
-    let free = (0..m.njnt()).find(|&j| m.jnt_type()[j] == 0).unwrap();
+    let free = (0..m.njnt()).find(|&j| m.jnt_type(j) == mujoco::JointType::Free).unwrap();
     let adr = m.jnt_qposadr()[free] as usize;
     let w = &c.walls[0];
-    let mut d = mujoco_sys::Data::new(m.clone()).unwrap();
+    let mut d = mujoco::Data::new(m.clone()).unwrap();
     d.qpos_mut()[adr..adr + 3].copy_from_slice(&[(w.from[0] + w.to[0]) / 2.0, (w.from[1] + w.to[1]) / 2.0, 0.4]);
     d.forward().unwrap();
-    let touches =
-        |d: &mujoco_sys::Data| d.contacts().iter().any(|k| k.geom1 as usize == wall || k.geom2 as usize == wall);
+    let touches = |d: &mujoco::Data| d.contacts().iter().any(|k| k.geom1 as usize == wall || k.geom2 as usize == wall);
     assert!(touches(&d), "a robot inside a wall must touch it");
     d.qpos_mut()[adr + 1] += 3.0;
     d.forward().unwrap();

@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use mujoco_sys::{Data, Model};
+use mujoco::{Data, Model};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -146,7 +146,7 @@ impl RobotEnv {
         motors.torque_soft_limit = idx.torque_limit.iter().map(|t| t * cfg.rewards.soft_torque_limit).collect();
         motors.deviation_groups = idx.deviation_groups.clone();
         let terrain = if cfg.terrain.enabled {
-            if model.id(mujoco_sys::ObjType::Hfield, crate::terrain::TERRAIN_NAME).is_err() {
+            if model.id(mujoco::ObjType::Hfield, crate::terrain::TERRAIN_NAME).is_err() {
                 return Err(EnvError::Config(
                     "[env.terrain] is on but the model has no terrain: build it with assets::load_robot".into(),
                 ));
@@ -365,11 +365,11 @@ impl RobotEnv {
             if let (Ok(()), Some(s)) = (&r, &mut self.sim2sim) {
                 r = s.after_physics_step(&self.data, &self.idx, dt).map_err(|e| match e {
                     EnvError::Mujoco(m) => m,
-                    other => mujoco_sys::MujocoError::Invalid(other.to_string()),
+                    other => mujoco::MujocoError::Invalid(other.to_string()),
                 });
             }
             if let Err(e) = r {
-                if matches!(e, mujoco_sys::MujocoError::Capacity { .. }) {
+                if matches!(e, mujoco::MujocoError::Capacity { .. }) {
                     self.fatal = Some(e.into());
                 }
                 ok = false;

@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use mujoco_sys::{Data, Model};
+use mujoco::{Data, Model};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 

@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use mujoco_sys::{Data, Model, ObjType};
+use mujoco::{Data, Model, ObjType};
 use nalgebra::Vector3;
 
 use crate::error::Result;

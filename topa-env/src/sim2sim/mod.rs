@@ -14,7 +14,7 @@ pub mod sensors;
 
 use std::sync::Arc;
 
-use mujoco_sys::{Data, Model};
+use mujoco::{Data, Model};
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -344,7 +344,7 @@ impl Sim2Sim {
             let recorded = self.recording.is_some().then(|| input.clone());
             let ok = self.kf.step(dt, &input);
             if let (Some(input), Some(rec)) = (recorded, &mut self.recording) {
-                let v = d.object_velocity(mujoco_sys::ObjType::Site, idx.imu_site, false);
+                let v = d.object_velocity(mujoco::ObjType::Site, idx.imu_site, false);
                 rec.push(FilterSample {
                     dt,
                     input,

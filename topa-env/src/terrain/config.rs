@@ -66,7 +66,7 @@ pub enum BoxContacts {
     #[default]
     Prisms,
     /// The box's corners against the field's triangles and the field's samples against the box, reduced to the
-    /// four contacts spanning the patch and the deepest (`mujoco_sys::hfield_box`): cheaper, fewer constraints.
+    /// four contacts spanning the patch and the deepest (`mujoco::hfield_box`): cheaper, fewer constraints.
     Vertices,
 }
 

@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use mujoco_sys::{hfield_box, Model, ObjType};
+use mujoco::{hfield_box, Model, ObjType};
 
 use super::config::BoxContacts;
 use super::field::Terrain;
@@ -18,7 +18,7 @@ pub const TERRAIN_NAME: &str = "terrain";
 /// Contact and constraint capacity on terrain, ~2× the largest use `topa bench memory --terrain` measured (512 envs
 /// × 300 steps, Euler and RK4, walking pushed, falling, lying and thrashing): 65 contacts, 276 constraint rows,
 /// 3556 mjtNum of stack (the stack ~6×: it grows with the square of the rows).
-/// `nuser_geom`: the field's `user` value selects its box contacts (`mujoco_sys::hfield_box`).
+/// `nuser_geom`: the field's `user` value selects its box contacts (`mujoco::hfield_box`).
 const SIZE: &str = r#"<size nconmax="120" njmax="600" nstack="20000" nuser_geom="1"/>"#;
 
 impl Terrain {

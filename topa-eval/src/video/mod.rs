@@ -2,16 +2,15 @@
 //! camera that follows the torso, the command and the measured velocity written on every frame, and a GIF or MP4.
 
 mod encode;
-mod gl;
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
-use mujoco_sys::render::{Quality, Renderer};
+use mujoco::render::{Quality, Renderer};
 use topa_env::RobotEnv;
 
 pub use encode::VideoWriter;
-pub use gl::{GlContext, INSTALL_HINT};
+pub use mujoco::gl::{GlContext, INSTALL_HINT};
 
 /// `--quality` on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -8,7 +8,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Result;
-use mujoco_sys::Data;
+use mujoco::Data;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use topa_env::policy_runner::PolicyRunner;

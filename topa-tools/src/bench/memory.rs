@@ -17,12 +17,11 @@ fn rss_and_faults() -> (usize, i64) {
         .ok()
         .and_then(|s| s.split_whitespace().nth(1).and_then(|v| v.parse::<usize>().ok()))
         .map_or(0, |pages| pages * 4096);
-    // SAFETY: getrusage writes the struct we pass.
-    let faults = unsafe {
-        let mut u: libc::rusage = std::mem::zeroed();
-        libc::getrusage(libc::RUSAGE_SELF, &mut u);
-        u.ru_minflt
-    };
+    // Field 10 of /proc/self/stat (minflt), counted after the command name's closing parenthesis (field 2).
+    let faults = std::fs::read_to_string("/proc/self/stat")
+        .ok()
+        .and_then(|s| s.rsplit_once(')').and_then(|(_, rest)| rest.split_whitespace().nth(7)?.parse::<i64>().ok()))
+        .unwrap_or(0);
     (rss, faults)
 }
 

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use mujoco_sys::{ffi, Data, Model, ObjType};
+use mujoco::{Data, Model, ObjType};
 use rayon::prelude::*;
 
 /// Puts `d` where testspeed starts: keyframe "test" if the model has one, else qpos0.
@@ -30,8 +30,7 @@ fn inject_ctrl_noise(model: &Model, d: &mut Data, i: usize, noise: f64) {
         } else {
             (0.0, 1.0)
         };
-        // SAFETY: pure function.
-        let h = unsafe { ffi::mju_Halton(i as i32, j as i32 + 2) };
+        let h = mujoco::halton(i, j + 2);
         *c = center + radius * noise * (2.0 * h - 1.0);
     }
 }

@@ -11,7 +11,7 @@
 use std::process::Command;
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use topa_env::VecEnv;
 use trainer::Trainer;
@@ -68,13 +68,7 @@ fn run_worker(threads: usize, repeats: usize, kernel: Option<&str>) -> Result<Wo
     if let Some(k) = kernel {
         cmd.env("NN_GEMM", k);
     }
-    let out = cmd.output()?;
-    if !out.status.success() {
-        bail!("bench worker ({threads} threads) failed: {}", String::from_utf8_lossy(&out.stderr));
-    }
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = text.lines().last().context("bench worker printed nothing")?;
-    Ok(serde_json::from_str(line)?)
+    super::worker_result(cmd, threads)
 }
 
 fn torch_samples_per_s(python: &str, threads: usize) -> Result<f64> {

@@ -5,7 +5,7 @@
 use std::time::Instant;
 
 use anyhow::Result;
-use mujoco_sys::render::{Quality, Renderer};
+use mujoco::render::{Quality, Renderer};
 use topa_env::{assets, EnvConfig, ModelKind, RobotEnv, Task};
 
 use topa_eval::video::{GlContext, VideoWriter};

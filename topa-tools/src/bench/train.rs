@@ -16,7 +16,7 @@
 use std::process::Command;
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use trainer::Trainer;
 
@@ -163,13 +163,7 @@ fn run_worker(a: &Args, threads: usize) -> Result<WorkerResult> {
     if let Some(i) = &a.integrator {
         cmd.args(["--integrator", i.name()]);
     }
-    let out = cmd.output()?;
-    if !out.status.success() {
-        bail!("bench worker ({threads} threads) failed: {}", String::from_utf8_lossy(&out.stderr));
-    }
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = text.lines().last().context("bench worker printed nothing")?;
-    Ok(serde_json::from_str(line)?)
+    super::worker_result(cmd, threads)
 }
 
 pub fn run(a: &Args) -> Result<()> {

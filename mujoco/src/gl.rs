@@ -1,8 +1,9 @@
-//! A headless OpenGL context through EGL (Mesa's software renderer on a machine without a GPU or an X server),
-//! loaded at run time so that a machine without the libraries gets a message instead of a crash.
+//! A headless OpenGL context through EGL (Mesa's software renderer on a machine without a GPU or an X server), for
+//! MuJoCo's renderer; libEGL is loaded at run time so that a machine without it gets a message instead of a crash.
 
-use anyhow::{anyhow, Context, Result};
 use khronos_egl as egl;
+
+use crate::error::{MujocoError, Result};
 
 /// `EGL_PLATFORM_SURFACELESS_MESA`: render without any window system.
 const PLATFORM_SURFACELESS_MESA: egl::Enum = 0x31DD;
@@ -20,16 +21,18 @@ pub struct GlContext {
 }
 
 impl GlContext {
+    /// A context with a `width` × `height` pbuffer, current on this thread until dropped.
     pub fn headless(width: usize, height: usize) -> Result<GlContext> {
+        let gl = |what: &str, e: &dyn std::fmt::Display| MujocoError::Gl(format!("{what} ({e}): {INSTALL_HINT}"));
         // SAFETY: loading the system's libEGL, which implements the EGL API the crate describes.
         let egl = unsafe { egl::DynamicInstance::<egl::EGL1_5>::load_required() }
-            .map_err(|e| anyhow!("cannot load libEGL ({e}): {INSTALL_HINT}"))?;
+            .map_err(|e| gl("cannot load libEGL", &e))?;
         // SAFETY: the surfaceless platform takes the default (null) native display.
         let display =
             unsafe { egl.get_platform_display(PLATFORM_SURFACELESS_MESA, egl::DEFAULT_DISPLAY, &[egl::ATTRIB_NONE]) }
-                .map_err(|e| anyhow!("no headless EGL display ({e}): {INSTALL_HINT}"))?;
-        egl.initialize(display).map_err(|e| anyhow!("eglInitialize failed ({e}): {INSTALL_HINT}"))?;
-        egl.bind_api(egl::OPENGL_API).context("EGL has no desktop OpenGL")?;
+                .map_err(|e| gl("no headless EGL display", &e))?;
+        egl.initialize(display).map_err(|e| gl("eglInitialize failed", &e))?;
+        egl.bind_api(egl::OPENGL_API).map_err(|e| gl("EGL has no desktop OpenGL", &e))?;
         let attributes = [
             egl::SURFACE_TYPE,
             egl::PBUFFER_BIT,
@@ -47,13 +50,14 @@ impl GlContext {
         ];
         let config = egl
             .choose_first_config(display, &attributes)
-            .context("eglChooseConfig")?
-            .ok_or_else(|| anyhow!("EGL offers no OpenGL pbuffer configuration: {INSTALL_HINT}"))?;
-        let context = egl.create_context(display, config, None, &[egl::NONE]).context("eglCreateContext")?;
+            .map_err(|e| gl("eglChooseConfig", &e))?
+            .ok_or_else(|| gl("EGL offers no OpenGL pbuffer configuration", &"none"))?;
+        let context =
+            egl.create_context(display, config, None, &[egl::NONE]).map_err(|e| gl("eglCreateContext", &e))?;
         let surface = egl
             .create_pbuffer_surface(display, config, &[egl::WIDTH, width as i32, egl::HEIGHT, height as i32, egl::NONE])
-            .context("eglCreatePbufferSurface")?;
-        egl.make_current(display, Some(surface), Some(surface), Some(context)).context("eglMakeCurrent")?;
+            .map_err(|e| gl("eglCreatePbufferSurface", &e))?;
+        egl.make_current(display, Some(surface), Some(surface), Some(context)).map_err(|e| gl("eglMakeCurrent", &e))?;
         Ok(GlContext { egl, display, context, surface })
     }
 }

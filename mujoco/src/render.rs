@@ -3,14 +3,15 @@
 //! current on this thread first (EGL, OSMesa or GLX); MuJoCo finds its functions through whichever of those
 //! libraries the process has loaded. Every call that can raise a MuJoCo error returns `Err`.
 
+use mujoco_sys::shim;
 use std::ffi::CString;
 use std::sync::Arc;
 
 use crate::data::Data;
 use crate::error::{MujocoError, Result};
-use crate::ffi::{self, mjrContext, mjrRect, mjvCamera, mjvOption, mjvScene};
-use crate::guard::{self, guarded};
+use crate::guard::guarded;
 use crate::model::Model;
+use mujoco_sys::ffi::{self, mjrContext, mjrRect, mjvCamera, mjvOption, mjvScene};
 
 /// Most geoms a frame can hold.
 const MAX_GEOM: i32 = 2000;
@@ -79,7 +80,7 @@ impl Renderer {
         // The structs are boxed: their addresses stay put if a guarded call long-jumps out.
         let (scn, con) = (&mut *scene as *mut mjvScene, &mut *context as *mut mjrContext);
         // SAFETY: valid model and owned structs.
-        guarded("mjv_makeScene", |e, n| unsafe { guard::mjs_make_scene(m, scn, MAX_GEOM, e, n) })?;
+        guarded("mjv_makeScene", |e, n| unsafe { shim::mjs_make_scene(m, scn, MAX_GEOM, e, n) })?;
         // Text about 1/25 of the frame height: MuJoCo's font scales are fixed steps.
         let font = match height {
             0..=300 => ffi::mjFONTSCALE_50,
@@ -88,7 +89,7 @@ impl Renderer {
         };
         // SAFETY: a GL context is current (made above) and `con` is a default-initialised mjrContext; the call is
         // guarded (no usable OpenGL raises mju_error, which returns here as an error).
-        let made = guarded("mjr_makeContext", |e, n| unsafe { guard::mjs_make_context(m, con, font as i32, e, n) });
+        let made = guarded("mjr_makeContext", |e, n| unsafe { shim::mjs_make_context(m, con, font as i32, e, n) });
         let mut r = Renderer {
             model,
             scene,
@@ -217,7 +218,7 @@ impl Renderer {
         };
         let (scn, con) = (&mut *self.scene as *mut mjvScene, &*self.context as *const mjrContext);
         // SAFETY: owned structs, context made in `new`.
-        guarded("mjr_render", |e, n| unsafe { guard::mjs_render(viewport, scn, con, e, n) })?;
+        guarded("mjr_render", |e, n| unsafe { shim::mjs_render(viewport, scn, con, e, n) })?;
         if let Some((left, right)) = overlay {
             let (a, b) = (CString::new(left).unwrap_or_default(), CString::new(right).unwrap_or_default());
             // SAFETY: NUL-terminated strings, context made in `new`.

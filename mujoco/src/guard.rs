@@ -6,72 +6,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::OnceLock;
 
 use crate::error::{MujocoError, Result};
-use crate::ffi::{mjData, mjModel, mjVFS, mjrContext, mjrRect, mjvScene};
+use mujoco_sys::shim::mjs_install_handlers;
 
 pub(crate) const ERR_LEN: usize = 1024;
-
-extern "C" {
-    fn mjs_install_handlers(warning_cb: extern "C" fn(*const c_char));
-    pub(crate) fn mjs_step(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn mjs_step1(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn mjs_step2(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn mjs_forward(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn mjs_make_scene(
-        m: *const mjModel,
-        scn: *mut mjvScene,
-        maxgeom: c_int,
-        err: *mut c_char,
-        len: c_int,
-    ) -> c_int;
-    pub(crate) fn mjs_make_context(
-        m: *const mjModel,
-        con: *mut mjrContext,
-        fontscale: c_int,
-        err: *mut c_char,
-        len: c_int,
-    ) -> c_int;
-    pub(crate) fn mjs_render(
-        viewport: mjrRect,
-        scn: *mut mjvScene,
-        con: *const mjrContext,
-        err: *mut c_char,
-        len: c_int,
-    ) -> c_int;
-    pub(crate) fn mjs_kinematics(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn mjs_fwd_position(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn mjs_reset_data(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn mjs_reset_data_keyframe(
-        m: *const mjModel,
-        d: *mut mjData,
-        key: c_int,
-        err: *mut c_char,
-        len: c_int,
-    ) -> c_int;
-    pub(crate) fn mjs_set_const(m: *mut mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn mjs_make_data(m: *const mjModel, out: *mut *mut mjData, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn mjs_copy_data(
-        out: *mut *mut mjData,
-        m: *const mjModel,
-        src: *const mjData,
-        err: *mut c_char,
-        len: c_int,
-    ) -> c_int;
-    pub(crate) fn mjs_copy_model(out: *mut *mut mjModel, src: *const mjModel, err: *mut c_char, len: c_int) -> c_int;
-    pub(crate) fn mjs_save_last_xml(
-        filename: *const c_char,
-        m: *const mjModel,
-        ok: *mut c_int,
-        err: *mut c_char,
-        len: c_int,
-    ) -> c_int;
-    pub(crate) fn mjs_load_xml(
-        filename: *const c_char,
-        vfs: *const mjVFS,
-        out: *mut *mut mjModel,
-        err: *mut c_char,
-        len: c_int,
-    ) -> c_int;
-}
 
 /// Warnings logged so far; after the first few only every 1000th is logged, so that a batch of diverging
 /// environments cannot flood the log (callers see every warning through `Data::warnings`).
@@ -91,7 +28,7 @@ pub(crate) fn init() -> Result<()> {
     static INIT: OnceLock<Result<()>> = OnceLock::new();
     INIT.get_or_init(|| {
         // SAFETY: plain getters with no preconditions.
-        let version = unsafe { crate::ffi::mj_version() };
+        let version = unsafe { mujoco_sys::ffi::mj_version() };
         if !(220..230).contains(&version) {
             return Err(MujocoError::Version {
                 found: format!("{}.{}.{}", version / 100, version / 10 % 10, version % 10),
@@ -108,7 +45,7 @@ pub(crate) fn init() -> Result<()> {
 /// The library version string, e.g. "2.2.2".
 pub fn version_string() -> String {
     // SAFETY: mj_version reads a constant; it has no preconditions.
-    let v = unsafe { crate::ffi::mj_version() };
+    let v = unsafe { mujoco_sys::ffi::mj_version() };
     format!("{}.{}.{}", v / 100, v / 10 % 10, v % 10)
 }
 

@@ -3,9 +3,9 @@
 use std::ffi::{CStr, CString};
 
 use crate::error::{MujocoError, Result};
-use crate::ffi;
 use crate::model::Model;
 use crate::obj_type::ObjType;
+use mujoco_sys::ffi;
 
 impl Model {
     /// The id of the named object, or an error that names the object, the model and the names it does have.

@@ -14,7 +14,7 @@
 use std::os::raw::c_int;
 use std::sync::OnceLock;
 
-use crate::ffi::{self, mjContact, mjData, mjModel, mjtNum};
+use mujoco_sys::ffi::{self, mjContact, mjData, mjModel, mjtNum};
 
 /// The `user` value of a height-field geom that selects these contacts.
 pub const USER_VERTEX_CONTACTS: f64 = 1.0;

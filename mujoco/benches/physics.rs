@@ -5,8 +5,8 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::Result;
-use mujoco_sys::{ffi, Data, Model, ObjType};
+use mujoco::{Data, Model, ObjType, Result};
+use mujoco_sys::ffi;
 
 const STEPS: usize = 20_000;
 
@@ -27,7 +27,7 @@ fn run(model: &Arc<Model>, bare: bool) -> Result<f64> {
 }
 
 fn main() -> Result<()> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/mjcf/topa_closed.xml");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/mjcf/topa_closed.xml");
     let model = Arc::new(Model::from_xml_path(&path)?);
     let (mut bare, mut safe) = (0.0f64, 0.0f64);
     for round in 0..6 {

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use mujoco_sys::{Data, Model, MujocoError, ObjType, Warning};
+use mujoco::{Data, Model, MujocoError, ObjType, Warning};
 use rayon::prelude::*;
 
 fn fixture(name: &str) -> PathBuf {

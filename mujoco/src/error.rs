@@ -39,6 +39,9 @@ pub enum MujocoError {
     /// A name that the model does not define.
     #[error("model '{model}' has no {kind} named '{name}'{hint}")]
     NotFound { model: String, kind: ObjType, name: String, hint: String },
+    /// No OpenGL context for MuJoCo's renderer (the message says what to install).
+    #[error("headless OpenGL: {0}")]
+    Gl(String),
     /// An index or size that does not fit the model.
     #[error("{0}")]
     Invalid(String),

@@ -1,13 +1,14 @@
 //! `Model`: a compiled mjModel, loaded from a file or from an XML string (through MuJoCo's virtual file system).
 
+use mujoco_sys::shim;
 use std::ffi::{c_char, CStr, CString};
 use std::mem::MaybeUninit;
 use std::path::Path;
 use std::ptr::NonNull;
 
 use crate::error::{MujocoError, Result};
-use crate::ffi::{self, mjModel};
 use crate::guard::{self, c_buf_to_string, guarded, ERR_LEN};
+use mujoco_sys::ffi::{self, mjModel};
 
 /// A compiled MuJoCo model. Immutable while shared (`Arc<Model>`); the parameters that domain randomisation and
 /// system identification change are reachable through `&mut Model`.
@@ -70,7 +71,7 @@ impl Model {
         let mut message = String::new();
         guarded("mj_saveLastXML", |e, n| {
             // SAFETY: valid model and NUL-terminated name; MuJoCo writes at most `n` bytes of error into `e`.
-            let r = unsafe { guard::mjs_save_last_xml(c.as_ptr(), self.raw(), &mut ok, e, n) };
+            let r = unsafe { shim::mjs_save_last_xml(c.as_ptr(), self.raw(), &mut ok, e, n) };
             if r == 0 && ok == 0 {
                 // SAFETY: MuJoCo NUL-terminated its message within the buffer.
                 message = guard::c_buf_to_string(unsafe { std::slice::from_raw_parts(e, n as usize) });
@@ -89,7 +90,7 @@ impl Model {
     pub fn try_clone(&self) -> Result<Self> {
         let mut out: *mut mjModel = std::ptr::null_mut();
         // SAFETY: valid source model; the shim writes the new pointer on success.
-        guarded("mj_copyModel", |e, n| unsafe { guard::mjs_copy_model(&mut out, self.raw(), e, n) })?;
+        guarded("mj_copyModel", |e, n| unsafe { shim::mjs_copy_model(&mut out, self.raw(), e, n) })?;
         NonNull::new(out)
             .map(|ptr| Model { ptr })
             .ok_or_else(|| MujocoError::Fatal { call: "mj_copyModel", message: "allocation failed".into() })
@@ -289,7 +290,7 @@ fn load(filename: &CStr, vfs: Option<&Vfs>, source_name: &str) -> Result<Model> 
     let mut out: *mut mjModel = std::ptr::null_mut();
     let vfs_ptr = vfs.map_or(std::ptr::null(), |v| v.as_ptr());
     // SAFETY: valid C strings and buffers; the shim guards mju_error.
-    let rc = unsafe { guard::mjs_load_xml(filename.as_ptr(), vfs_ptr, &mut out, err.as_mut_ptr(), ERR_LEN as i32) };
+    let rc = unsafe { shim::mjs_load_xml(filename.as_ptr(), vfs_ptr, &mut out, err.as_mut_ptr(), ERR_LEN as i32) };
     let message = c_buf_to_string(&err);
     match NonNull::new(out) {
         Some(ptr) if rc == 0 => {

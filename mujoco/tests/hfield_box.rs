@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use mujoco_sys::{hfield_box, Data, Model};
+use mujoco::{hfield_box, Data, Model};
 
 /// A 0.18 × 0.09 × 0.03 m box (a sole) dropped on a 4 m field sampled every 5 cm, tilted by `slope` (rad) about y,
 /// or on a plane; `user` selects the field's collision.

@@ -2,7 +2,7 @@
 
 use std::fmt;
 
-use crate::ffi;
+use mujoco_sys::ffi;
 
 /// The kinds of named objects the safe layer looks up.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

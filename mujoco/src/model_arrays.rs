@@ -1,8 +1,9 @@
 //! Typed views of mjModel's arrays: read-only for structure, mutable for the parameters that domain randomisation
 //! and system identification change (masses, inertias, friction, motor armature/damping/frictionloss, gains).
 
-use crate::ffi::{mjNBIAS, mjNEQDATA, mjNGAIN};
+use crate::kinds::{EqualityType, GeomType, JointType, Transmission};
 use crate::model::Model;
+use mujoco_sys::ffi::{mjNBIAS, mjNEQDATA, mjNGAIN};
 
 /// A slice over a MuJoCo array of `count` items of type `T` (`T` may be `[f64; N]` for row-major groups).
 ///
@@ -65,6 +66,34 @@ macro_rules! write_arrays {
     };
 }
 
+/// MuJoCo's type codes, read one at a time as the safe layer's enums.
+macro_rules! typed_arrays {
+    ($($(#[$doc:meta])* $name:ident: $kind:ident, $count:ident;)*) => {
+        impl Model {
+            $(
+                $(#[$doc])*
+                pub fn $name(&self, i: usize) -> $kind {
+                    let m = self.raw();
+                    // SAFETY: as in read_arrays.
+                    let codes: &[i32] = unsafe { view(m.$name, m.$count as usize) };
+                    $kind::of(codes[i])
+                }
+            )*
+        }
+    };
+}
+
+typed_arrays! {
+    /// Joint `i`'s type.
+    jnt_type: JointType, njnt;
+    /// Geom `i`'s shape.
+    geom_type: GeomType, ngeom;
+    /// What actuator `i` drives.
+    actuator_trntype: Transmission, nu;
+    /// Equality constraint `i`'s type.
+    eq_type: EqualityType, neq;
+}
+
 read_arrays! {
     body_parentid: i32, nbody;
     body_rootid: i32, nbody;
@@ -78,7 +107,6 @@ read_arrays! {
     body_ipos: [f64; 3], nbody;
     body_iquat: [f64; 4], nbody;
     body_subtreemass: f64, nbody;
-    jnt_type: i32, njnt;
     jnt_qposadr: i32, njnt;
     jnt_dofadr: i32, njnt;
     jnt_bodyid: i32, njnt;
@@ -88,14 +116,12 @@ read_arrays! {
     jnt_range: [f64; 2], njnt;
     dof_bodyid: i32, nv;
     dof_jntid: i32, nv;
-    geom_type: i32, ngeom;
     geom_bodyid: i32, ngeom;
     geom_size: [f64; 3], ngeom;
     geom_pos: [f64; 3], ngeom;
     geom_quat: [f64; 4], ngeom;
     site_bodyid: i32, nsite;
     site_pos: [f64; 3], nsite;
-    actuator_trntype: i32, nu;
     actuator_trnid: [i32; 2], nu;
     actuator_ctrllimited: u8, nu;
     actuator_forcelimited: u8, nu;
@@ -105,7 +131,6 @@ read_arrays! {
     sensor_objid: i32, nsensor;
     sensor_dim: i32, nsensor;
     sensor_adr: i32, nsensor;
-    eq_type: i32, neq;
     eq_obj1id: i32, neq;
     eq_obj2id: i32, neq;
     eq_active: u8, neq;

@@ -1,13 +1,15 @@
 //! `Data`: one simulation state for a model, owned by one thread at a time. Every call that can raise a MuJoCo
 //! error goes through the shim and returns `Err` instead of exiting the process.
 
+use mujoco_sys::shim;
 use std::sync::Arc;
 
 use crate::error::{MujocoError, Result};
-use crate::ffi::{self, mjContact, mjData};
 use crate::guard::{self, guarded};
+use crate::kinds::ConstraintType;
 use crate::model::Model;
 use crate::model_arrays::{view, view_mut};
+use mujoco_sys::ffi::{self, mjContact, mjData};
 
 /// MuJoCo's warning kinds (`mjtWarning`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -120,7 +122,7 @@ impl Data {
         guard::init()?;
         let mut out: *mut mjData = std::ptr::null_mut();
         // SAFETY: valid model; the shim writes the new pointer on success.
-        guarded("mj_makeData", |e, n| unsafe { guard::mjs_make_data(model.raw(), &mut out, e, n) })?;
+        guarded("mj_makeData", |e, n| unsafe { shim::mjs_make_data(model.raw(), &mut out, e, n) })?;
         let ptr = std::ptr::NonNull::new(out)
             .ok_or_else(|| MujocoError::Fatal { call: "mj_makeData", message: "allocation failed".into() })?;
         Ok(Data { ptr, model })
@@ -130,7 +132,7 @@ impl Data {
     pub fn try_clone(&self) -> Result<Data> {
         let mut out: *mut mjData = std::ptr::null_mut();
         // SAFETY: self was made for self.model.
-        guarded("mj_copyData", |e, n| unsafe { guard::mjs_copy_data(&mut out, self.model.raw(), self.raw(), e, n) })?;
+        guarded("mj_copyData", |e, n| unsafe { shim::mjs_copy_data(&mut out, self.model.raw(), self.raw(), e, n) })?;
         let ptr = std::ptr::NonNull::new(out)
             .ok_or_else(|| MujocoError::Fatal { call: "mj_copyData", message: "allocation failed".into() })?;
         Ok(Data { ptr, model: self.model.clone() })
@@ -172,7 +174,7 @@ impl Data {
     pub fn step(&mut self) -> Result<()> {
         let (m, d) = self.parts();
         // SAFETY: d was made for m.
-        let r = guarded("mj_step", |e, n| unsafe { guard::mjs_step(m, d, e, n) });
+        let r = guarded("mj_step", |e, n| unsafe { shim::mjs_step(m, d, e, n) });
         self.check_capacity("mj_step", r)
     }
 
@@ -180,14 +182,14 @@ impl Data {
     pub fn step1(&mut self) -> Result<()> {
         let (m, d) = self.parts();
         // SAFETY: d was made for m; the call is guarded.
-        guarded("mj_step1", |e, n| unsafe { guard::mjs_step1(m, d, e, n) })
+        guarded("mj_step1", |e, n| unsafe { shim::mjs_step1(m, d, e, n) })
     }
 
     /// Second half of a step (forces, acceleration, integration).
     pub fn step2(&mut self) -> Result<()> {
         let (m, d) = self.parts();
         // SAFETY: d was made for m; the call is guarded.
-        let r = guarded("mj_step2", |e, n| unsafe { guard::mjs_step2(m, d, e, n) });
+        let r = guarded("mj_step2", |e, n| unsafe { shim::mjs_step2(m, d, e, n) });
         self.check_capacity("mj_step2", r)
     }
 
@@ -195,7 +197,7 @@ impl Data {
     pub fn forward(&mut self) -> Result<()> {
         let (m, d) = self.parts();
         // SAFETY: d was made for m; the call is guarded.
-        let r = guarded("mj_forward", |e, n| unsafe { guard::mjs_forward(m, d, e, n) });
+        let r = guarded("mj_forward", |e, n| unsafe { shim::mjs_forward(m, d, e, n) });
         self.check_capacity("mj_forward", r)
     }
 
@@ -243,7 +245,7 @@ impl Data {
     pub fn kinematics(&mut self) -> Result<()> {
         let (m, d) = self.parts();
         // SAFETY: d was made for m.
-        guarded("mj_kinematics", |e, n| unsafe { guard::mjs_kinematics(m, d, e, n) })
+        guarded("mj_kinematics", |e, n| unsafe { shim::mjs_kinematics(m, d, e, n) })
     }
 
     /// Positions and the constraint set (rows, violations, Jacobian) for the current `qpos` (`mj_fwdPosition`):
@@ -251,7 +253,7 @@ impl Data {
     pub fn fwd_position(&mut self) -> Result<()> {
         let (m, d) = self.parts();
         // SAFETY: d was made for m; the call is guarded (a MuJoCo error returns instead of exiting).
-        let r = guarded("mj_fwdPosition", |e, n| unsafe { guard::mjs_fwd_position(m, d, e, n) });
+        let r = guarded("mj_fwdPosition", |e, n| unsafe { shim::mjs_fwd_position(m, d, e, n) });
         self.check_capacity("mj_fwdPosition", r)
     }
 
@@ -331,7 +333,7 @@ impl Data {
     pub fn reset(&mut self) -> Result<()> {
         let (m, d) = self.parts();
         // SAFETY: d was made for m; the call is guarded.
-        guarded("mj_resetData", |e, n| unsafe { guard::mjs_reset_data(m, d, e, n) })
+        guarded("mj_resetData", |e, n| unsafe { shim::mjs_reset_data(m, d, e, n) })
     }
 
     /// Back to keyframe `key` (its qpos, qvel, act, ctrl, time).
@@ -345,7 +347,7 @@ impl Data {
         }
         let (m, d) = self.parts();
         // SAFETY: d was made for m and `key` was checked against nkey above; the call is guarded.
-        guarded("mj_resetDataKeyframe", |e, n| unsafe { guard::mjs_reset_data_keyframe(m, d, key as i32, e, n) })
+        guarded("mj_resetDataKeyframe", |e, n| unsafe { shim::mjs_reset_data_keyframe(m, d, key as i32, e, n) })
     }
 
     /// Recomputes the model constants that depend on masses and inertias (`mj_setConst`), after changing them.
@@ -354,7 +356,7 @@ impl Data {
         let d = self.ptr.as_ptr();
         let m = self.model_mut().as_ptr();
         // SAFETY: d was made for m (copy-on-write keeps the sizes).
-        guarded("mj_setConst", |e, n| unsafe { guard::mjs_set_const(m, d, e, n) })
+        guarded("mj_setConst", |e, n| unsafe { shim::mjs_set_const(m, d, e, n) })
     }
 
     /// Simulation time (s).
@@ -426,8 +428,17 @@ impl Data {
         out
     }
 
-    /// Constraint row types (`mjtConstraint`) of the current constraint set (nefc rows).
-    pub fn efc_type(&self) -> &[i32] {
+    /// Rows of the current constraint set (after the last forward/step).
+    pub fn nefc(&self) -> usize {
+        self.raw().nefc as usize
+    }
+
+    /// Constraint row `i`'s type.
+    pub fn efc_type(&self, i: usize) -> ConstraintType {
+        ConstraintType::of(self.efc_codes()[i])
+    }
+
+    fn efc_codes(&self) -> &[i32] {
         let d = self.raw();
         // SAFETY: efc_type holds nefc entries after the last forward/step; the view lives as long as &self.
         unsafe { view(d.efc_type, d.nefc as usize) }
@@ -454,10 +465,8 @@ impl Data {
     /// Euclidean norm of equality constraint `eq`'s violation (metres for a connect), from the constraint rows of
     /// the last `forward`/`step`. Zero when the constraint is inactive.
     pub fn equality_residual(&self, eq: usize) -> f64 {
-        let rows = self.efc_type().iter().zip(self.efc_id()).zip(self.efc_pos());
-        rows.filter(|((&t, &id), _)| t == ffi::mjCNSTR_EQUALITY as i32 && id as usize == eq)
-            .map(|(_, p)| p * p)
-            .sum::<f64>()
-            .sqrt()
+        let equality = ffi::mjCNSTR_EQUALITY as i32;
+        let rows = self.efc_codes().iter().zip(self.efc_id()).zip(self.efc_pos());
+        rows.filter(|((&t, &id), _)| t == equality && id as usize == eq).map(|(_, p)| p * p).sum::<f64>().sqrt()
     }
 }
