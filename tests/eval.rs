@@ -7,8 +7,14 @@ use std::sync::Arc;
 use candle_core::{Device, Tensor};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use topa as topa_ref;
+use topa::N_MOTORS;
 use topa_env::policy_runner::PolicyRunner;
-use topa_env::topa::{self as topa_ref, ModelKind, N_MOTORS};
+use topa_env::ModelKind;
+
+#[path = "../topa-env/tests/reference/topa.rs"]
+mod topa;
+
 use topa_env::{assets, EnvConfig, RobotEnv, Task};
 use topa_eval::play::PlayOptions;
 use topa_eval::settings::EvalSettings;

@@ -6,8 +6,13 @@ use std::path::{Path, PathBuf};
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use topa::N_MOTORS;
 use topa_env::policy_runner::PolicyRunner;
-use topa_env::topa::{ModelKind, N_MOTORS};
+use topa_env::ModelKind;
+
+#[path = "../topa-env/tests/reference/topa.rs"]
+mod topa;
+
 use topa_env::{assets, RobotEnv, Task};
 use topa_eval::settings::EvalSettings;
 use tract_onnx::prelude::*;

@@ -10,10 +10,13 @@ use trainer::config::{LossConfig, PpoConfig, TrainConfig};
 use trainer::ppo::{self, Agent, Batch};
 use trainer::storage::Rollout;
 
+#[path = "../topa-env/tests/reference/topa.rs"]
+mod topa;
+
 fn agent(seed: u64, sym: bool, losses: LossConfig) -> Agent {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let ac = ActorCritic::new(42, 10, &[16, 8], &[16, 8], 0.7, &mut rng).unwrap();
-    Agent::new(ac, PpoConfig::default(), losses, sym.then(topa_env::topa::symmetry))
+    Agent::new(ac, PpoConfig::default(), losses, sym.then(topa::symmetry))
 }
 
 fn batch(seed: u64, rows: usize) -> Batch {
@@ -116,7 +119,7 @@ fn decay_touches_only_the_actors_last_layer() {
 /// Sets the actor to an equivariant-by-construction network: hidden units in mirror pairs
 /// h = ELU(W o + b), h' = ELU(W S_o o + b), output V h + S_a V h' + c with S_a c = c.
 fn make_equivariant(a: &Agent, rng: &mut ChaCha8Rng) {
-    let s = topa_env::topa::symmetry();
+    let s = topa::symmetry();
     let layers = &a.ac.actor.layers;
     assert_eq!(layers.len(), 2, "one hidden layer");
     let k = layers[0].out_dim() / 2;
@@ -163,7 +166,7 @@ fn symmetry_loss_is_zero_for_an_equivariant_policy_and_positive_otherwise() {
         ac,
         PpoConfig::default(),
         LossConfig { symmetry_coef: 1.0, decay_coef: 0.0, symmetry_augmentation: false },
-        Some(topa_env::topa::symmetry()),
+        Some(topa::symmetry()),
     );
     let b = batch(6, 32);
     let random = term(&a, &b, 3).1;
@@ -184,7 +187,7 @@ fn a_mirrored_batch_is_the_batch_and_its_mirror_image() {
         ActorCritic::new(42, 10, &[16], &[16], 0.7, &mut rng).unwrap(),
         PpoConfig::default(),
         losses,
-        Some(topa_env::topa::symmetry()),
+        Some(topa::symmetry()),
     );
     let sym = a.symmetry.clone().unwrap();
     let b = batch(9, 24);

@@ -133,25 +133,3 @@ pub fn mirror_mj_state(
 ) -> crate::error::Result<(Vec<f64>, Vec<f64>)> {
     Ok(StateMirror::new(model)?.apply(qpos, qvel))
 }
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn topa_maps_are_involutions_with_the_right_signs() {
-        let s = crate::topa::symmetry();
-        assert!(s.obs.is_involution() && s.act.is_involution());
-        assert_eq!(s.obs.len(), 42);
-        let x: Vec<f32> = (0..42).map(|i| i as f32 + 1.0).collect();
-        let mut m = vec![0.0; 42];
-        s.obs.apply(&x, &mut m);
-        let mut mm = vec![0.0; 42];
-        s.obs.apply(&m, &mut mm);
-        assert_eq!(mm, x);
-        assert_eq!(&m[0..3], &[1.0, -2.0, 3.0]); // v: y flips
-        assert_eq!(&m[3..6], &[-4.0, 5.0, -6.0]); // ω: roll and yaw rates flip
-        assert_eq!(&m[6..9], &[7.0, -8.0, 9.0]); // g: y flips
-        assert_eq!(m[9], -x[14]); // left hip roll ← −right hip roll
-        assert_eq!(m[12], x[17]); // left knee ← right knee
-        assert_eq!(&m[39..42], &[40.0, -41.0, -42.0]); // command: v_y and w_z flip
-    }
-}

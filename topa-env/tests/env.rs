@@ -6,9 +6,13 @@ use std::sync::Arc;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use topa::{OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_Q};
 use topa_env::symmetry::mirror_mj_state;
 use topa_env::tasks::{cartpole, CartPole};
-use topa_env::topa::{OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_Q};
+
+#[path = "reference/topa.rs"]
+mod topa;
+
 use topa_env::{assets, BatchEnv, EnvConfig, ModelKind, RobotEnv, Task, VecEnv};
 
 /// Training config without randomness in the dynamics or the observation.
@@ -59,7 +63,7 @@ fn standing_still_earns_the_tracking_and_posture_terms() {
     // The action that sends the keyframe's holding targets (nominal pose plus gravity compensation).
     let m = e.data().model();
     let key = e.indices().stand_key;
-    let nominal = topa_env::topa::nominal_actuated(ModelKind::Closed);
+    let nominal = topa::nominal_actuated(ModelKind::Closed);
     let hold: Vec<f32> = (0..10).map(|i| ((m.key_ctrl(key)[i] - nominal[i]) / cfg.action_scale) as f32).collect();
     for _ in 0..50 {
         let out = e.step(&hold, &mut obs);
@@ -139,7 +143,7 @@ fn mirror_equivariance(robot: &str, perturbations: Option<([f32; 12], [f32; 12])
 
 #[test]
 fn closed_model_dynamics_are_mirror_equivariant() {
-    assert_eq!(env(quiet(ModelKind::Closed), 1).symmetry(), Some(topa_env::topa::symmetry()));
+    assert_eq!(env(quiet(ModelKind::Closed), 1).symmetry(), Some(topa::symmetry()));
     let worst = mirror_equivariance("assets/robots/topa_closed.toml", None);
     assert!(worst < 1e-3, "mirrored dynamics differ by {worst}: a sign in S_o/S_a or the model is wrong");
 }

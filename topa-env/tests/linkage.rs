@@ -7,9 +7,13 @@ mod common;
 use std::path::Path;
 
 use rand::{RngExt, SeedableRng};
+use topa::N_MOTORS;
 use topa_env::linkage::Linkage;
 use topa_env::spec::RobotSpec;
-use topa_env::topa::{self, ModelKind, N_MOTORS};
+use topa_env::ModelKind;
+
+#[path = "reference/topa.rs"]
+mod topa;
 
 fn linkage(kind: ModelKind) -> (RobotSpec, Linkage) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../assets/robots/{}.toml", kind.robot_name()));

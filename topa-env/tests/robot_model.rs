@@ -6,7 +6,12 @@ use std::sync::Arc;
 use mujoco::{Data, GeomType, Model, ObjType};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use topa_env::topa::{self, ModelKind, N_MOTORS};
+use topa::N_MOTORS;
+use topa_env::ModelKind;
+
+#[path = "reference/topa.rs"]
+mod topa;
+
 use topa_env::{assets, RobotIndices};
 
 fn load(kind: ModelKind) -> (Arc<Model>, RobotIndices) {

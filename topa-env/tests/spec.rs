@@ -4,7 +4,10 @@
 use std::path::{Path, PathBuf};
 
 use topa_env::spec::{RobotSpec, SpecError};
-use topa_env::topa::{self, ModelKind};
+use topa_env::ModelKind;
+
+#[path = "reference/topa.rs"]
+mod topa;
 
 fn robots() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/robots")

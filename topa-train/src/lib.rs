@@ -3,6 +3,16 @@
 //! a run started, forked from another run's policy or resumed bit for bit, its checkpoints and policy files, and
 //! its learning curves.
 //!
+//! ```
+//! // The preset's config resolved as a run records it: every key of the task's config, defaults included.
+//! let preset = topa_env::assets::repo_dir().join("configs/cpu.toml");
+//! let (cfg, env) = topa_train::load_config(&preset)?;
+//! let resolved = topa_train::with_resolved_env(&cfg)?;
+//! assert!(resolved.env.len() > cfg.env.len());
+//! assert_eq!(topa_train::config::env_config(&resolved)?.robot, env.robot);
+//! # anyhow::Ok(())
+//! ```
+//!
 //! ```no_run
 //! // Train the preset (TopA, closed chain) for its configured iterations into `runs/demo`.
 //! let start = topa_train::Start {
