@@ -1,13 +1,10 @@
 //! `topa eval <experiment>`: one experiment on one policy (or a run's checkpoints) — run, print (Markdown or
 //! JSON), write results to a folder. The settings every evaluation command shares (`Common`) live here too.
 
-use std::path::PathBuf;
-
 use anyhow::Result;
 
-use crate::cli::{Common, EvalCmd, VideoArgs};
+use crate::cli::{Common, EvalCmd};
 use topa_env::policy_runner::PolicyRunner;
-use topa_eval::settings::EvalSettings;
 use topa_eval::{
     course, course_map, endurance, heatmaps, noise, progress, progress_plot, push, report, terrain, terrain_map,
     tracking,
@@ -88,7 +85,7 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             course_map::course_map(&map, &result, &title, &png)?;
             if let Some(file) = &video.video {
                 let top = speeds.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-                let out = course_video(&mut r, &map, &s, top, file, &video)?;
+                let out = topa_eval::clips::course(&mut r, &map, &s, top, file, &video.options()?)?;
                 eprintln!("video of the {top} m/s run: {}", out.display());
             }
             if c.json {
@@ -106,9 +103,16 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             let title = format!("{} ({} sim2sim)", policy.display(), c.sim2sim);
             terrain_map::success_map(&result, &title, &png, &svg)?;
             if let Some(file) = &video.video {
-                match hardest_tile(&result) {
+                match topa_eval::clips::hardest_tile(&result) {
                     Some((kind, level)) => {
-                        let out = terrain_video(&mut r, &s, &result, (kind, level), file, &video)?;
+                        let out = topa_eval::clips::terrain_tile(
+                            &mut r,
+                            &s,
+                            &result,
+                            (kind, level),
+                            file,
+                            &video.options()?,
+                        )?;
                         eprintln!(
                             "video of {} at difficulty {:.2}: {}",
                             kind.name(),
@@ -149,94 +153,4 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// The course at one top speed again, rendered from behind the robot.
-fn course_video(
-    r: &mut PolicyRunner,
-    map: &topa_env::course::Course,
-    s: &EvalSettings,
-    speed: f64,
-    file: &std::path::Path,
-    video: &VideoArgs,
-) -> Result<PathBuf> {
-    let o = video.options()?;
-    let mut rec: Option<topa_eval::video::VideoRecorder> = None;
-    let mut watch = |t: f64, env: &mut topa_env::RobotEnv| -> Result<()> {
-        if rec.is_none() {
-            rec = Some(topa_eval::video::VideoRecorder::create(
-                file,
-                env,
-                o.video_size,
-                o.fps,
-                o.quality.unwrap_or(mujoco::render::Quality::Fast),
-            )?);
-        }
-        let v = rec.as_mut().unwrap();
-        let torso = env.indices().torso_body;
-        v.follow(torso, 2.2, env.robot_state().yaw.to_degrees(), -25.0);
-        let text = topa_eval::video::overlay(env, t);
-        v.advance(t, env, &text)
-    };
-    course::run(r, map, s, &[speed], Some(&mut watch))?;
-    rec.ok_or_else(|| anyhow::anyhow!("the course run rendered no frame"))?.finish()
-}
-
-/// The hardest tile every run crossed without a fall (ties: the later type, stairs and obstacles before flat):
-/// (type, level).
-fn hardest_tile(r: &terrain::TerrainResult) -> Option<(topa_env::terrain::TileKind, usize)> {
-    let types = &r.terrain.types;
-    let level = |d: f64| (0..r.terrain.levels).find(|&l| r.terrain.difficulty(l) == d).unwrap_or(0);
-    r.success_grid()
-        .into_iter()
-        .filter(|c| c.2 >= 1.0)
-        .map(|(k, d, _)| (k, level(d)))
-        .max_by_key(|&(k, l)| (l, types.iter().position(|&t| t == k)))
-}
-
-/// One walk over a terrain tile, rendered from behind the robot.
-fn terrain_video(
-    r: &mut PolicyRunner,
-    s: &EvalSettings,
-    result: &terrain::TerrainResult,
-    (kind, level): (topa_env::terrain::TileKind, usize),
-    file: &std::path::Path,
-    video: &VideoArgs,
-) -> Result<PathBuf> {
-    use topa_env::Task;
-    let o = video.options()?;
-    let mut cfg = s.env_config(r)?;
-    cfg.terrain = result.terrain.clone();
-    let (_, model) = topa_env::assets::load_robot(&cfg)?;
-    let mut env = topa_env::RobotEnv::new(model, std::sync::Arc::new(cfg.clone()), s.seed, 0)?;
-    let column = cfg.terrain.types.iter().position(|&k| k == kind).unwrap_or(0);
-    env.set_terrain_tile(Some((level, column)))?;
-    let mut obs = vec![0.0; env.obs_dim()];
-    env.reset(&mut obs)?;
-    env.set_command_override(Some([0.0; 3]));
-    let mut rec = topa_eval::video::VideoRecorder::create(
-        file,
-        &env,
-        o.video_size,
-        o.fps,
-        o.quality.unwrap_or(mujoco::render::Quality::Fast),
-    )?;
-    let dt = cfg.policy_dt();
-    let (settle, total) = ((s.settle_s / dt).round() as usize, ((s.settle_s + result.window_s) / dt).round() as usize);
-    let mut actions = Vec::new();
-    for k in 0..total {
-        if k == settle {
-            env.set_command_override(Some(terrain::COMMANDS[0].1));
-        }
-        r.act(&obs, &mut actions);
-        let done = env.step(&actions, &mut obs).done;
-        let t = (k + 1) as f64 * dt;
-        rec.follow(env.indices().torso_body, 2.2, env.robot_state().yaw.to_degrees() + 30.0, -20.0);
-        let text = topa_eval::video::overlay(&env, t);
-        rec.advance(t, &mut env, &text)?;
-        if done {
-            break;
-        }
-    }
-    rec.finish()
 }

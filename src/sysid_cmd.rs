@@ -1,15 +1,14 @@
 //! `topa sysid …`: the identification tools on the command line.
 
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use crate::cli::SysidCmd;
 use anyhow::{Context, Result};
 
-use topa_sysid::bench::{windows, Bench, Params};
+use topa_sysid::bench::Params;
 use topa_sysid::excite::{self, CommandKind, Design};
 use topa_sysid::fit::FitOptions;
-use topa_sysid::identify::{self, Identification, Plan};
+use topa_sysid::identify::{self, Plan};
 use topa_sysid::log::MotorLog;
 use topa_sysid::synthetic::{self, SensorModel};
 
@@ -89,7 +88,7 @@ pub(crate) fn run(cmd: SysidCmd) -> Result<()> {
             out,
         } => {
             let mut exc = synthetic::read_excitation(&excitation)?;
-            let b = load_bench(&bench, robot.as_deref(), &exc)?.0;
+            let b = topa_sysid::robot::bench_or_hung(&bench, robot.as_deref(), &exc)?.0;
             synthetic::drive_gains_from_model(&b, &mut exc);
             let mut truth = synthetic::hidden(&b.nominal(), hidden_seed);
             if let Some(d) = hidden_delay {
@@ -112,7 +111,15 @@ pub(crate) fn run(cmd: SysidCmd) -> Result<()> {
             );
         }
         SysidCmd::Estimator { policy, seconds, recording, held_out_recording, seed, out } => {
-            tune_estimator(&policy, seconds, recording.as_deref(), held_out_recording.as_deref(), seed, &out)?;
+            let md = topa_sysid::tuning::run(
+                &policy,
+                seconds,
+                recording.as_deref(),
+                held_out_recording.as_deref(),
+                seed,
+                &out,
+            )?;
+            println!("{md}\nresults: {} (estimator.toml, estimator.md, estimator.json)", out.display());
         }
         SysidCmd::Fit {
             bench,
@@ -131,7 +138,7 @@ pub(crate) fn run(cmd: SysidCmd) -> Result<()> {
             out,
         } => {
             let data = MotorLog::read(&log)?;
-            let (mut b, mjcf) = load_bench(&bench, robot.as_deref(), &data)?;
+            let (mut b, mjcf) = topa_sysid::robot::bench_or_hung(&bench, robot.as_deref(), &data)?;
             let closed_loop =
                 data.motors.iter().all(|m| matches!(m.command, topa_sysid::log::Command::Position { .. }));
             let window = window.unwrap_or(if closed_loop { 5.0 } else { 0.5 });
@@ -182,111 +189,21 @@ pub(crate) fn run(cmd: SysidCmd) -> Result<()> {
                 truth,
             };
             let id = identify::identify(&plan)?;
-            write_identification(&id, &b, &data, held.as_ref(), &start, &mjcf, &out)?;
+            let (md, xml, sim2sim) = identify::write(&id, &b, &data, held.as_ref(), &start, &mjcf, &out)?;
+            println!("{md}");
+            if !id.fit.converged {
+                eprintln!(
+                    "warning: the fit did not converge ({}); its best values are above, with their intervals",
+                    id.fit.termination
+                );
+            }
+            println!(
+                "results: {} (identified.json, identified.md, fit.png, {}{})",
+                out.display(),
+                xml.display(),
+                sim2sim
+            );
         }
     }
-    Ok(())
-}
-
-fn tune_estimator(
-    policy: &std::path::Path,
-    seconds: f64,
-    recording: Option<&std::path::Path>,
-    held_out: Option<&std::path::Path>,
-    seed: u64,
-    out: &std::path::Path,
-) -> Result<()> {
-    use topa_eval::settings::{EvalSettings, Sim2SimMode};
-    use topa_sysid::estimator;
-    let base = EvalSettings { seed, threads: 1, ..EvalSettings::default() }.with_sim2sim(&Sim2SimMode::Realistic)?;
-    let default = base.sim2sim.estimator.filter.clone();
-    let (fit, held, mut runner) = match (recording, held_out) {
-        (Some(r), Some(h)) => (estimator::read_csv(r)?, estimator::read_csv(h)?, None),
-        _ => {
-            let mut runner = topa_env::policy_runner::PolicyRunner::load(policy, "policy")?;
-            eprintln!("recording {seconds} s of the realistic sim2sim twice (seeds {seed} and {})", seed + 1);
-            let fit = estimator::record(&mut runner, &base, seconds)?;
-            let held = estimator::record(&mut runner, &EvalSettings { seed: seed + 1, ..base.clone() }, seconds)?;
-            topa_eval::report::write_text(out, "recording.csv", &estimator::to_csv(&fit))?;
-            topa_eval::report::write_text(out, "held_out.csv", &estimator::to_csv(&held))?;
-            (fit, held, Some(runner))
-        }
-    };
-    let t = estimator::tune(&default, &fit, &held)?;
-    let mut tuned = base.sim2sim.clone();
-    tuned.estimator.filter = t.tuned.clone();
-    // Closed loop: the policy walking on the tuned filter's estimate, against the default's, on the held-out seed.
-    let closed = match &mut runner {
-        None => None,
-        Some(r) => {
-            let s = EvalSettings { seed: seed + 1, sim2sim: tuned.clone(), ..base.clone() };
-            let rec = estimator::record(r, &s, seconds)?;
-            let online = |v: &[topa_env::sim2sim::FilterSample]| {
-                estimator::rmse(&v.iter().map(|x| x.estimate).collect::<Vec<_>>(), v)
-            };
-            Some([online(&held), online(&rec)])
-        }
-    };
-    let toml = format!(
-        "# The realistic sim2sim with the state estimator tuned by `topa sysid estimator` (use: --sim2sim <this file>).\n{}",
-        toml::to_string(&tuned)?
-    );
-    topa_eval::report::write_text(out, "estimator.toml", &toml)?;
-    // The file is what `--sim2sim` will read: it must load back to these values.
-    let back = EvalSettings::default().with_sim2sim(&Sim2SimMode::File(out.join("estimator.toml")))?;
-    anyhow::ensure!(back.sim2sim == tuned, "estimator.toml does not load back to the tuned values (a bug)");
-    topa_eval::report::write_json(out, "estimator.json", &(&t, closed))?;
-    let md = estimator::markdown(&t, closed);
-    topa_eval::report::write_text(out, "estimator.md", &md)?;
-    println!("{md}\nresults: {} (estimator.toml, estimator.md, estimator.json)", out.display());
-    Ok(())
-}
-
-/// The bench, or the robot hung in the air; and the MJCF an identified copy is made of.
-fn load_bench(bench: &std::path::Path, robot: Option<&std::path::Path>, log: &MotorLog) -> Result<(Bench, PathBuf)> {
-    Ok(match robot {
-        None => (Bench::load(bench, log)?, bench.to_path_buf()),
-        Some(r) => {
-            let spec = topa_env::assets::resolve_path(&r.to_string_lossy());
-            let b = topa_sysid::robot::hung_bench(&spec, log)?;
-            let mjcf = topa_env::spec::RobotSpec::load(&spec)?.0.mjcf;
-            (b, mjcf)
-        }
-    })
-}
-
-fn write_identification(
-    id: &Identification,
-    b: &Bench,
-    log: &MotorLog,
-    held: Option<&MotorLog>,
-    start: &Params,
-    bench: &std::path::Path,
-    out: &std::path::Path,
-) -> Result<()> {
-    let md = identify::markdown(id);
-    topa_eval::report::write_json(out, "identified.json", id)?;
-    topa_eval::report::write_text(out, "identified.md", &md)?;
-    // The plot: the first 2 s held out.
-    let (plot_log, from) = match held {
-        Some(h) => (h, 0),
-        None => (log, (id.fitted_s / log.step()).round() as usize),
-    };
-    let to = (from + (2.0 / log.step()) as usize).min(plot_log.time.len());
-    if let Some(&span) = windows(from, to, usize::MAX / 2).first().filter(|(s, e)| e - s > b.burn_in + 2) {
-        identify::plot(b, plot_log, span, start, &id.fit.params, &out.join("fit.png"))?;
-    }
-    let stem = bench.file_stem().map_or("bench".into(), |s| s.to_string_lossy().into_owned());
-    let xml = out.join(format!("{stem}_identified.xml"));
-    identify::write_patched_mjcf(bench, &id.fit.params, &id.motors, &xml)?;
-    let sim2sim = identify::write_sim2sim(id, out)?;
-    println!("{md}");
-    if !id.fit.converged {
-        eprintln!(
-            "warning: the fit did not converge ({}); its best values are above, with their intervals",
-            id.fit.termination
-        );
-    }
-    println!("results: {} (identified.json, identified.md, fit.png, {}{})", out.display(), xml.display(), sim2sim);
     Ok(())
 }

@@ -61,7 +61,7 @@ pub(crate) struct VideoArgs {
     pub(crate) fps: u32,
     /// fast (no multisampling, shadows or reflections: ~15 ms a 640×480 frame in software) or high (~150 ms).
     #[arg(long, default_value = "fast")]
-    pub(crate) quality: topa_eval::video::QualityArg,
+    pub(crate) quality: super::QualityArg,
 }
 
 impl VideoArgs {

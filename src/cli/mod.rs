@@ -303,7 +303,7 @@ pub(crate) enum BenchCmd {
         frames: usize,
         /// fast (the videos' default) or high (multisampling, shadows, reflections).
         #[arg(long, default_value = "fast")]
-        quality: topa_eval::video::QualityArg,
+        quality: QualityArg,
     },
     /// Real training iterations of a preset: samples/s, the collect / inference / update split, and their ratio
     /// to the bare physics bound measured in the same run.
@@ -330,4 +330,20 @@ pub(crate) enum BenchCmd {
         #[arg(long, hide = true)]
         worker: bool,
     },
+}
+
+/// `--quality` on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum QualityArg {
+    Fast,
+    High,
+}
+
+impl From<QualityArg> for mujoco::render::Quality {
+    fn from(q: QualityArg) -> mujoco::render::Quality {
+        match q {
+            QualityArg::Fast => mujoco::render::Quality::Fast,
+            QualityArg::High => mujoco::render::Quality::High,
+        }
+    }
 }

@@ -21,6 +21,7 @@
 
 pub mod ablate;
 pub mod claims;
+pub mod clips;
 pub mod course;
 pub mod course_map;
 pub mod doc_blocks;

@@ -11,7 +11,8 @@ use super::bench::{Bench, MotorParams, Params, Window};
 use super::log::MotorLog;
 
 /// A parameter kind the fit can free.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Kind {
     Armature,

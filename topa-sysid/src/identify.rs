@@ -286,3 +286,34 @@ pub fn write_sim2sim(id: &Identification, out: &Path) -> Result<String> {
     topa_eval::report::write_text(out, "identified_sim2sim.toml", &text)?;
     Ok(", identified_sim2sim.toml".into())
 }
+
+/// Writes an identification's report into `out`: identified.json and .md, the plot of the first 2 s held out
+/// (fit.png), the bench's MJCF with the identified values, and the realistic sim2sim's motor section; returns the
+/// report, the MJCF written and the sim2sim file's note.
+pub fn write(
+    id: &Identification,
+    b: &Bench,
+    log: &MotorLog,
+    held: Option<&MotorLog>,
+    start: &Params,
+    bench: &Path,
+    out: &Path,
+) -> Result<(String, PathBuf, String)> {
+    let md = markdown(id);
+    topa_eval::report::write_json(out, "identified.json", id)?;
+    topa_eval::report::write_text(out, "identified.md", &md)?;
+    // The plot: the first 2 s held out.
+    let (plot_log, from) = match held {
+        Some(h) => (h, 0),
+        None => (log, (id.fitted_s / log.step()).round() as usize),
+    };
+    let to = (from + (2.0 / log.step()) as usize).min(plot_log.time.len());
+    if let Some(&span) = windows(from, to, usize::MAX / 2).first().filter(|(s, e)| e - s > b.burn_in + 2) {
+        plot(b, plot_log, span, start, &id.fit.params, &out.join("fit.png"))?;
+    }
+    let stem = bench.file_stem().map_or("bench".into(), |s| s.to_string_lossy().into_owned());
+    let xml = out.join(format!("{stem}_identified.xml"));
+    write_patched_mjcf(bench, &id.fit.params, &id.motors, &xml)?;
+    let sim2sim = write_sim2sim(id, out)?;
+    Ok((md, xml, sim2sim))
+}

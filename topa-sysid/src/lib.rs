@@ -26,3 +26,4 @@ pub mod log;
 pub mod robot;
 pub mod spectrum_plot;
 pub mod synthetic;
+pub mod tuning;

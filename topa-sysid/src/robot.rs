@@ -2,7 +2,7 @@
 //! file puts it) and contacts off, every motor at once, the closed loops included. A window starts with the
 //! logged motor positions and the loops closed around them (the robot's own loop-closure solver).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use anyhow::{Context, Result};
@@ -68,6 +68,19 @@ pub fn hung_bench(spec_path: &Path, log: &MotorLog) -> Result<Bench> {
         Ok(q)
     });
     Bench::from_model(model, spec_path, motors, log, Some(start_pose))
+}
+
+/// The bench, or the robot hung in the air; and the MJCF an identified copy is made of.
+pub fn bench_or_hung(bench: &Path, robot: Option<&Path>, log: &MotorLog) -> Result<(Bench, PathBuf)> {
+    Ok(match robot {
+        None => (Bench::load(bench, log)?, bench.to_path_buf()),
+        Some(r) => {
+            let spec = topa_env::assets::resolve_path(&r.to_string_lossy());
+            let b = hung_bench(&spec, log)?;
+            let mjcf = topa_env::spec::RobotSpec::load(&spec)?.0.mjcf;
+            (b, mjcf)
+        }
+    })
 }
 
 /// The MJCF without its `<freejoint …/>` (or `<joint … type="free" …/>`) and without keyframes (their qpos has the

@@ -12,22 +12,6 @@ use topa_env::RobotEnv;
 pub use encode::VideoWriter;
 pub use mujoco::gl::{GlContext, INSTALL_HINT};
 
-/// `--quality` on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum QualityArg {
-    Fast,
-    High,
-}
-
-impl From<QualityArg> for Quality {
-    fn from(q: QualityArg) -> Quality {
-        match q {
-            QualityArg::Fast => Quality::Fast,
-            QualityArg::High => Quality::High,
-        }
-    }
-}
-
 /// Frames of a run at a fixed rate.
 pub struct VideoRecorder {
     // Field order is drop order: the renderer frees OpenGL objects while the context still exists.
