@@ -61,7 +61,7 @@ pub(crate) struct VideoArgs {
     pub(crate) fps: u32,
     /// fast (no multisampling, shadows or reflections: ~15 ms a 640×480 frame in software) or high (~150 ms).
     #[arg(long, default_value = "fast")]
-    pub(crate) quality: super::QualityArg,
+    pub(crate) quality: QualityArg,
 }
 
 impl VideoArgs {
@@ -216,5 +216,21 @@ impl TerrainArgs {
         let (levels, runs, window_s) = (self.levels, self.runs, self.seconds);
         let (types, resolution, contacts) = (self.types, self.resolution, self.contacts);
         terrain::Protocol { levels, runs, window_s, types, resolution, contacts }
+    }
+}
+
+/// `--quality` on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum QualityArg {
+    Fast,
+    High,
+}
+
+impl From<QualityArg> for mujoco::render::Quality {
+    fn from(q: QualityArg) -> mujoco::render::Quality {
+        match q {
+            QualityArg::Fast => mujoco::render::Quality::Fast,
+            QualityArg::High => mujoco::render::Quality::High,
+        }
     }
 }

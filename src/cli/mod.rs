@@ -10,7 +10,7 @@ mod groups;
 mod sysid;
 mod train;
 
-pub(crate) use eval::{Common, EvalCmd, TerrainArgs, VideoArgs};
+pub(crate) use eval::{Common, EvalCmd, QualityArg, TerrainArgs, VideoArgs};
 pub(crate) use groups::{Groups, Sim2SimArg};
 pub(crate) use sysid::SysidCmd;
 pub(crate) use train::TrainArgs;
@@ -330,20 +330,4 @@ pub(crate) enum BenchCmd {
         #[arg(long, hide = true)]
         worker: bool,
     },
-}
-
-/// `--quality` on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub(crate) enum QualityArg {
-    Fast,
-    High,
-}
-
-impl From<QualityArg> for mujoco::render::Quality {
-    fn from(q: QualityArg) -> mujoco::render::Quality {
-        match q {
-            QualityArg::Fast => mujoco::render::Quality::Fast,
-            QualityArg::High => mujoco::render::Quality::High,
-        }
-    }
 }
