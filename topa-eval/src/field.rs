@@ -114,7 +114,9 @@ impl Mergeable for Field {
         self.results.iter().map(|r| (r.policy.clone(), r.weights_crc32)).collect()
     }
 
-    fn absorb(&mut self, part: Field, _file: &Path) -> Result<()> {
+    const JOINS_A_POLICY: bool = true;
+
+    fn absorb(&mut self, part: Field) -> Result<()> {
         for mode in &part.extent.modes {
             if !self.extent.modes.contains(mode) {
                 self.extent.modes.push(mode.clone());

@@ -24,8 +24,11 @@ pub trait Mergeable: DeserializeOwned {
     /// Each policy measured, with the CRC-32 of the weights measured (None in files from before weights were
     /// recorded).
     fn measured(&self) -> Vec<(PathBuf, Option<u32>)>;
-    /// Adds a later part's results; `file` names it in a refusal (a policy measured twice).
-    fn absorb(&mut self, part: Self, file: &Path) -> Result<()>;
+    /// Whether a policy may stand in two parts (its results then join, as the field test's sim2sim modes do);
+    /// otherwise it is refused: it would count as two seeds.
+    const JOINS_A_POLICY: bool = false;
+    /// Adds a later part's results.
+    fn absorb(&mut self, part: Self) -> Result<()>;
     /// Puts the joined results in the report's order.
     fn finish(&mut self) {}
 }
@@ -35,6 +38,7 @@ pub fn merge<R: Mergeable>(files: &[PathBuf]) -> Result<R> {
     ensure!(!files.is_empty(), "--merge takes one or more {} files", R::FILE);
     let mut out: Option<(&PathBuf, R)> = None;
     let mut weights: Vec<(PathBuf, u32, &PathBuf)> = Vec::new();
+    let mut held: Vec<PathBuf> = Vec::new();
     for f in files {
         let text = std::fs::read_to_string(f).with_context(|| format!("--merge: cannot read {}", f.display()))?;
         let part: R = serde_json::from_str(&text).with_context(|| {
@@ -47,6 +51,13 @@ pub fn merge<R: Mergeable>(files: &[PathBuf]) -> Result<R> {
             )
         })?;
         for (policy, crc) in part.measured() {
+            ensure!(
+                R::JOINS_A_POLICY || !held.contains(&policy),
+                "--merge: policy {} is in more than one file ({} among them); it would count as two seeds",
+                policy.display(),
+                f.display()
+            );
+            held.push(policy.clone());
             let Some(crc) = crc else { continue };
             still_current::<R>(f, &policy, crc)?;
             if let Some((_, other, g)) = weights.iter().find(|(p, ..)| *p == policy) {
@@ -83,7 +94,7 @@ pub fn merge<R: Mergeable>(files: &[PathBuf]) -> Result<R> {
                 first.display()
             );
         }
-        all.absorb(part, f)?;
+        all.absorb(part)?;
     }
     let (_, mut all) = out.expect("at least one file");
     all.finish();

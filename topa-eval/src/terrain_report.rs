@@ -114,16 +114,8 @@ impl Mergeable for TerrainReport {
         self.entries.iter().map(|e| (e.policy.clone(), e.weights_crc32)).collect()
     }
 
-    fn absorb(&mut self, part: TerrainReport, file: &Path) -> Result<()> {
-        for e in part.entries {
-            ensure!(
-                !self.entries.iter().any(|x| x.policy == e.policy),
-                "--merge: policy {} is in more than one file ({} among them); it would count as two seeds",
-                e.policy.display(),
-                file.display()
-            );
-            self.entries.push(e);
-        }
+    fn absorb(&mut self, part: TerrainReport) -> Result<()> {
+        self.entries.extend(part.entries);
         Ok(())
     }
 }
