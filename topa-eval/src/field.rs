@@ -6,7 +6,7 @@
 use crate::merge::Mergeable;
 use std::path::{Path, PathBuf};
 
-use anyhow::{ensure, Context, Result};
+use anyhow::{ensure, Result};
 use serde::{Deserialize, Serialize};
 use topa_env::course::Course;
 use topa_env::policy_runner::PolicyRunner;
@@ -160,9 +160,7 @@ impl Mergeable for Field {
 
 /// Reads a field.json.
 pub fn load(file: &Path) -> Result<Field> {
-    let text = std::fs::read_to_string(file).with_context(|| format!("--field: cannot read {}", file.display()))?;
-    serde_json::from_str(&text)
-        .with_context(|| format!("--field: {} is not a field.json written by `topa field`", file.display()))
+    crate::merge::read(file, "--field")
 }
 
 /// One group in one mode.

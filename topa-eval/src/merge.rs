@@ -40,16 +40,7 @@ pub fn merge<R: Mergeable>(files: &[PathBuf]) -> Result<R> {
     let mut weights: Vec<(PathBuf, u32, &PathBuf)> = Vec::new();
     let mut held: Vec<PathBuf> = Vec::new();
     for f in files {
-        let text = std::fs::read_to_string(f).with_context(|| format!("--merge: cannot read {}", f.display()))?;
-        let part: R = serde_json::from_str(&text).with_context(|| {
-            let article = if R::FILE.starts_with(['a', 'e', 'i', 'o', 'u']) { "an" } else { "a" };
-            format!(
-                "--merge: {} is not {article} {} written by `{}` (give that file)",
-                f.display(),
-                R::FILE,
-                R::COMMAND
-            )
-        })?;
+        let part: R = read(f, "--merge")?;
         for (policy, crc) in part.measured() {
             ensure!(
                 R::JOINS_A_POLICY || !held.contains(&policy),
@@ -99,6 +90,15 @@ pub fn merge<R: Mergeable>(files: &[PathBuf]) -> Result<R> {
     let (_, mut all) = out.expect("at least one file");
     all.finish();
     Ok(all)
+}
+
+/// Reads a report of kind `R` that the flag `flag` named: one error naming the file and what to give instead.
+pub fn read<R: Mergeable>(file: &Path, flag: &str) -> Result<R> {
+    let text = std::fs::read_to_string(file).with_context(|| format!("{flag}: cannot read {}", file.display()))?;
+    serde_json::from_str(&text).with_context(|| {
+        let article = if R::FILE.starts_with(['a', 'e', 'i', 'o', 'u']) { "an" } else { "a" };
+        format!("{flag}: {} is not {article} {} written by `{}` (give that file)", file.display(), R::FILE, R::COMMAND)
+    })
 }
 
 /// Refuses a result whose policy file, still at its path, now holds other weights than the ones measured; a file

@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{ensure, Context, Result};
+use anyhow::{ensure, Result};
 use serde::{Deserialize, Serialize};
 use topa_env::policy_runner::PolicyRunner;
 
@@ -80,9 +80,7 @@ pub fn merge(files: &[PathBuf]) -> Result<TerrainReport> {
 
 /// Reads a terrain.json (to attach to an ablation).
 pub fn load(file: &Path) -> Result<TerrainReport> {
-    let text = std::fs::read_to_string(file).with_context(|| format!("--terrain: cannot read {}", file.display()))?;
-    serde_json::from_str(&text)
-        .with_context(|| format!("--terrain: {} is not a terrain.json written by `topa terrain`", file.display()))
+    crate::merge::read(file, "--terrain")
 }
 
 impl Mergeable for TerrainReport {

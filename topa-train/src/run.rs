@@ -12,7 +12,7 @@ use trainer::comm::Comm;
 use trainer::metrics::MetricsWriter;
 use trainer::{IterationLog, Trainer};
 
-use crate::config::{added_inputs, env_config, load_config, with_env, with_resolved_env};
+use crate::config::{added_inputs, env_config, load_config, with_env};
 use crate::policy::export_policy;
 use crate::ranks::{check_ranks_agree, rank_env, ranks};
 
@@ -161,7 +161,8 @@ fn resume(s: &Start, dir: &Path, comm: &Rc<dyn Comm>) -> Result<Opened> {
     let (side, loaded) = checkpoint::read_sidecar(&side_path)?;
     // Checkpoints of earlier builds hold the `[env]` table as written: resolved now, the run keeps the
     // defaults it was started with in the checkpoints it writes from here on.
-    let mut cfg = with_resolved_env(&side.config)?;
+    let env = env_config(&side.config)?;
+    let mut cfg = with_env(&side.config, &env);
     if let Some(th) = s.threads {
         cfg.run.threads = th;
     }
@@ -175,7 +176,6 @@ fn resume(s: &Start, dir: &Path, comm: &Rc<dyn Comm>) -> Result<Opened> {
         cfg.run.iterations = n;
     }
     trainer::nn::init_threads(trainer::nn::resolve_threads(cfg.run.threads))?;
-    let env = env_config(&cfg)?;
     let mut t = Trainer::new(cfg.clone(), rank_env(&cfg, &env, comm.as_ref())?, side.with_adversary)?;
     t.set_comm(comm.clone());
     checkpoint::restore(&mut t, &side, &loaded)?;
