@@ -54,6 +54,25 @@ fn the_command_line_is_a_binary_with_no_public_items() {
     }
 }
 
+/// Every library says what can go wrong in its own error type (thiserror): anyhow, which erases the type, is the
+/// binary's alone, and no function answers with a bare `String` for its error.
+#[test]
+fn libraries_have_typed_errors() {
+    for c in LIBRARIES {
+        let manifest: toml::Table = toml::from_str(&std::fs::read_to_string(root().join(c).join("Cargo.toml")).unwrap()).unwrap();
+        let deps = manifest.get("dependencies").and_then(|d| d.as_table()).cloned().unwrap_or_default();
+        assert!(!deps.contains_key("anyhow"), "{c} depends on anyhow: give it an error type of its own");
+        let code = all_code(&root().join(c).join("src"));
+        for line in code.lines() {
+            let squeezed: String = line.chars().filter(|ch| !ch.is_whitespace()).collect();
+            assert!(
+                !squeezed.contains(",String>") || !squeezed.contains("Result<"),
+                "{c}: an error as a bare String: {line}"
+            );
+        }
+    }
+}
+
 /// `unsafe` code and the raw FFI stay in the FFI crates (mujoco-sys, and mujoco, the safe layer over it) and the
 /// learner's matrix kernels; the one exception is the binary's reset of SIGPIPE at start-up.
 #[test]

@@ -101,7 +101,7 @@ impl Model {
         std::mem::size_of::<mjModel>() + self.raw().nbuffer as usize
     }
 
-    /// The raw struct, for reading anything the safe layer does not wrap.
+    /// The raw struct, for FFI-level code (the bare-`mj_step` bench); everything else reads the accessors.
     pub fn raw(&self) -> &mjModel {
         // SAFETY: the pointer is valid for the model's lifetime.
         unsafe { self.ptr.as_ref() }
@@ -165,6 +165,16 @@ impl Model {
     }
     pub fn nkey(&self) -> usize {
         self.raw().nkey as usize
+    }
+    /// The preallocated sizes of the MJCF's `<size>`: contacts, constraint rows, and the stack in mjtNums.
+    pub fn nconmax(&self) -> usize {
+        self.raw().nconmax as usize
+    }
+    pub fn njmax(&self) -> usize {
+        self.raw().njmax as usize
+    }
+    pub fn nstack(&self) -> usize {
+        self.raw().nstack as usize
     }
 
     /// Physics timestep in seconds.

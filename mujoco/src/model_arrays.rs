@@ -127,7 +127,6 @@ read_arrays! {
     actuator_forcelimited: u8, nu;
     actuator_ctrlrange: [f64; 2], nu;
     actuator_gear: [f64; 6], nu;
-    sensor_type: i32, nsensor;
     sensor_objid: i32, nsensor;
     sensor_dim: i32, nsensor;
     sensor_adr: i32, nsensor;

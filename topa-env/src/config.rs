@@ -141,7 +141,7 @@ impl EnvConfig {
         let mut t = t.clone();
         if let Some(m) = t.remove("model") {
             let kind: ModelKind =
-                m.as_str().unwrap_or("").parse().map_err(|e: String| {
+                m.as_str().unwrap_or("").parse().map_err(|e: EnvError| {
                     EnvError::Config(format!("[env] model: {e} (or name a spec: robot = \"…\")"))
                 })?;
             t.entry("robot").or_insert_with(|| toml::Value::String(kind.spec_path().into()));
@@ -535,7 +535,7 @@ impl EnvConfig {
                 return Err(EnvError::Config(format!("{name} must be ≥ 0, got {v}")));
             }
         }
-        self.sim2sim.validate().map_err(EnvError::Config)?;
+        self.sim2sim.validate()?;
         self.terrain.validate()?;
         self.height_scan.validate()?;
         Ok(())

@@ -36,12 +36,14 @@ impl IntegratorChoice {
 }
 
 impl std::str::FromStr for IntegratorChoice {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
+    type Err = crate::EnvError;
+    fn from_str(s: &str) -> std::result::Result<Self, crate::EnvError> {
         [IntegratorChoice::Model, IntegratorChoice::Euler, IntegratorChoice::Rk4, IntegratorChoice::Implicit]
             .into_iter()
             .find(|i| i.name() == s)
-            .ok_or_else(|| format!("integrator '{s}' is unknown: use model, euler, rk4 or implicit"))
+            .ok_or_else(|| {
+                crate::EnvError::Choice(format!("integrator '{s}' is unknown: use model, euler, rk4 or implicit"))
+            })
     }
 }
 

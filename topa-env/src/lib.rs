@@ -12,7 +12,7 @@
 //! assert_eq!(envs.action_dim(), 10);
 //! assert_eq!(envs.obs().len(), 2 * envs.obs_dim());
 //! assert!(envs.obs().iter().all(|x| x.is_finite()));
-//! # anyhow::Ok(())
+//! # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
 //! ```
 
 pub mod assets;

@@ -1,11 +1,13 @@
 //! Motor↔joint maps of a robot with closed kinematic loops, computed from its MJCF's own constraints instead of
 //! typed in: positions by solving the loop closure (Gauss–Newton on the loops' passive joints), velocities by the
 //! closure's Jacobian J = ∂q_joint/∂q_motor, torques by virtual work, τ_motor = Jᵀ τ_joint. Nonlinear linkages
-//! (four-bar knees, two-rod ankles) work the same as TopA's linear one.
+//! (four-bar knees, two-rod ankles) work the same as TopA's linear one; a loop's passive joints may be hinges,
+//! slides or ball joints (Cassie's achilles rods). A passive set that cannot follow the motors (a joint of the loop
+//! left out) is an error naming the loop and the joints it also moves through, never a least-squares J.
 
 use std::sync::Arc;
 
-use mujoco::{ConstraintType, Data, Model, ObjType};
+use mujoco::{ConstraintType, Data, JointType, Model, ObjType};
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{EnvError, Result};
@@ -17,6 +19,8 @@ const CLOSURE_TOL: f64 = 1e-12;
 const MAX_ITERATIONS: usize = 60;
 /// The largest motor move between loop closures when solving far from the stand pose, rad.
 const CONTINUATION_STEP: f64 = 0.1;
+/// The closure's velocity equation must hold to this (per unit motor velocity) for J to be the linkage's.
+const JACOBIAN_TOL: f64 = 1e-8;
 
 pub struct Linkage {
     data: Data,
@@ -25,13 +29,64 @@ pub struct Linkage {
     motor_qpos: Vec<usize>,
     motor_dof: Vec<usize>,
     joint_qpos: Vec<usize>,
-    /// Passive joints of all loops (hinges or slides: one qpos, one dof each).
-    passive_qpos: Vec<usize>,
+    /// Passive joints of all loops, and their dofs in that order (a ball joint has three).
+    passive: Vec<Passive>,
     passive_dof: Vec<usize>,
-    /// For each motor, the passive joint that is its kinematic joint (None: the motor drives it directly).
+    /// For each motor, the passive dof that is its kinematic joint (None: the motor drives it directly).
     joint_is_passive: Vec<Option<usize>>,
     equalities: Vec<usize>,
+    /// Each loop's name and its equality constraints (for errors).
+    loop_names: Vec<(String, Vec<usize>)>,
+    spec_path: String,
     nominal_motors: Vec<f64>,
+}
+
+/// A passive joint: its first qpos address and first dof; a ball joint's qpos is a unit quaternion, its three
+/// dofs an angular velocity in the child frame.
+#[derive(Debug, Clone, Copy)]
+struct Passive {
+    qpos: usize,
+    dof: usize,
+    ball: bool,
+}
+
+impl Passive {
+    fn nq(self) -> usize {
+        if self.ball {
+            4
+        } else {
+            1
+        }
+    }
+    fn nv(self) -> usize {
+        if self.ball {
+            3
+        } else {
+            1
+        }
+    }
+}
+
+/// `q` ⊗ exp(ω/2) for a unit quaternion `q` (w, x, y, z) and a rotation vector ω in the child frame: MuJoCo's
+/// integration of a ball joint's position, renormalised.
+fn rotate_local(q: &mut [f64], omega: [f64; 3]) {
+    let angle = (omega[0] * omega[0] + omega[1] * omega[1] + omega[2] * omega[2]).sqrt();
+    if angle < 1e-300 {
+        return;
+    }
+    let (s, c) = ((angle / 2.0).sin() / angle, (angle / 2.0).cos());
+    let d = [c, s * omega[0], s * omega[1], s * omega[2]];
+    let (w, x, y, z) = (q[0], q[1], q[2], q[3]);
+    let r = [
+        w * d[0] - x * d[1] - y * d[2] - z * d[3],
+        w * d[1] + x * d[0] + y * d[3] - z * d[2],
+        w * d[2] - x * d[3] + y * d[0] + z * d[1],
+        w * d[3] + x * d[2] - y * d[1] + z * d[0],
+    ];
+    let n = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+    for (o, v) in q.iter_mut().zip(r) {
+        *o = v / n;
+    }
 }
 
 impl Linkage {
@@ -43,18 +98,20 @@ impl Linkage {
         // The addresses the env uses (actuated and kinematic joints, loops, stand keyframe), on this copy.
         let idx = RobotIndices::resolve(&m, &Arc::new(spec.clone()))?;
         let (motor_qpos, motor_dof, joint_qpos) = (idx.actuated_qpos, idx.actuated_dof, idx.joint_qpos);
-        let (mut passive_qpos, mut passive_dof) = (vec![], vec![]);
+        let mut passive = vec![];
         for p in spec.loops.iter().flat_map(|l| &l.passive) {
             let j = m.id(ObjType::Joint, p)?;
-            passive_qpos.push(m.jnt_qposadr_of(j));
-            passive_dof.push(m.jnt_dofadr_of(j));
+            let ball = m.jnt_type(j) == JointType::Ball;
+            passive.push(Passive { qpos: m.jnt_qposadr_of(j), dof: m.jnt_dofadr_of(j), ball });
         }
+        let passive_dof: Vec<usize> = passive.iter().flat_map(|p| p.dof..p.dof + p.nv()).collect();
         let joint_is_passive = (0..spec.motors.len())
             .map(|i| {
                 if motor_qpos[i] == joint_qpos[i] {
                     None
                 } else {
-                    passive_qpos.iter().position(|&q| q == joint_qpos[i])
+                    let p = passive.iter().find(|p| !p.ball && p.qpos == joint_qpos[i])?;
+                    passive_dof.iter().position(|&d| d == p.dof)
                 }
             })
             .collect::<Vec<_>>();
@@ -71,16 +128,24 @@ impl Linkage {
         }
         let key = idx.stand_key;
         let key_qpos = m.key_qpos(key).to_vec();
+        let equality = |name: &String| m.id(ObjType::Equality, name);
+        let loop_names = spec
+            .loops
+            .iter()
+            .map(|l| Ok((l.name.clone(), l.equality.iter().map(equality).collect::<mujoco::Result<Vec<_>>>()?)))
+            .collect::<Result<Vec<_>>>()?;
         let mut linkage = Linkage {
             data: Data::new(m)?,
             key,
             motor_qpos,
             motor_dof,
             joint_qpos,
-            passive_qpos,
+            passive,
             passive_dof,
             joint_is_passive,
             equalities: idx.loops,
+            loop_names,
+            spec_path: spec.path.display().to_string(),
             nominal_motors: idx.nominal_actuated,
         };
         linkage.check_keyframe(spec, &key_qpos)?;
@@ -89,7 +154,7 @@ impl Linkage {
 
     /// The stand keyframe must already close the loops: the env starts every episode from it.
     fn check_keyframe(&mut self, spec: &RobotSpec, key_qpos: &[f64]) -> Result<()> {
-        if self.passive_qpos.is_empty() {
+        if self.passive.is_empty() {
             return Ok(());
         }
         self.data.reset_keyframe(self.key)?;
@@ -98,8 +163,8 @@ impl Linkage {
         if residual > 1e-6 {
             let motors = self.nominal_motors.clone();
             let closed = self.closed_qpos(&motors).ok();
-            let worst =
-                closed.map(|q| self.passive_qpos.iter().map(|&a| (q[a] - key_qpos[a]).abs()).fold(0.0, f64::max));
+            let addresses: Vec<usize> = self.passive.iter().flat_map(|p| p.qpos..p.qpos + p.nq()).collect();
+            let worst = closed.map(|q| addresses.iter().map(|&a| (q[a] - key_qpos[a]).abs()).fold(0.0, f64::max));
             return Err(EnvError::Config(format!(
                 "{}: keyframe '{}' does not close the loops (constraint residual {residual:.2e}{}): solve it with \
                  `cargo run -p topa-env --example solve_stand -- {}` and put that qpos in the MJCF",
@@ -147,17 +212,24 @@ impl Linkage {
     fn newton(&mut self, motors: &[f64]) -> Result<()> {
         for _ in 0..MAX_ITERATIONS {
             self.data.fwd_position()?;
-            let (r, jp, _) = self.rows();
-            if r.norm() < CLOSURE_TOL || self.passive_qpos.is_empty() {
+            let (r, jp, _, _) = self.rows();
+            if r.norm() < CLOSURE_TOL || self.passive.is_empty() {
                 return Ok(());
             }
             let step = jp.pseudo_inverse(1e-12).map_err(|e| EnvError::Config(e.to_string()))? * &r;
-            for (k, &a) in self.passive_qpos.iter().enumerate() {
-                self.data.qpos_mut()[a] -= step[k];
+            let mut k = 0;
+            for p in self.passive.clone() {
+                let qpos = self.data.qpos_mut();
+                if p.ball {
+                    rotate_local(&mut qpos[p.qpos..p.qpos + 4], [-step[k], -step[k + 1], -step[k + 2]]);
+                } else {
+                    qpos[p.qpos] -= step[k];
+                }
+                k += p.nv();
             }
         }
         self.data.fwd_position()?;
-        let (r, _, _) = self.rows();
+        let (r, _, _, _) = self.rows();
         if r.norm() < 1e-9 {
             return Ok(());
         }
@@ -167,9 +239,9 @@ impl Linkage {
         )))
     }
 
-    /// The loops' equality rows at the current configuration: violations r, and the Jacobian's columns of the
-    /// passive joints (J_p) and of the motors (J_m).
-    fn rows(&self) -> (DVector<f64>, DMatrix<f64>, DMatrix<f64>) {
+    /// The loops' equality rows at the current configuration: violations r, the Jacobian's columns of the
+    /// passive joints (J_p) and of the motors (J_m), and each row's equality constraint.
+    fn rows(&self) -> (DVector<f64>, DMatrix<f64>, DMatrix<f64>, Vec<usize>) {
         let d = &self.data;
         let nv = d.model().nv();
         let jac = d.efc_jacobian().expect("the linkage's model stores its Jacobian dense");
@@ -180,7 +252,52 @@ impl Linkage {
             .collect();
         let r = DVector::from_iterator(rows.len(), rows.iter().map(|&i| d.efc_pos()[i]));
         let cols = |dofs: &[usize]| DMatrix::from_fn(rows.len(), dofs.len(), |i, k| jac[rows[i] * nv + dofs[k]]);
-        (r, cols(&self.passive_dof), cols(&self.motor_dof))
+        let eq = rows.iter().map(|&i| d.efc_id()[i] as usize).collect();
+        (r, cols(&self.passive_dof), cols(&self.motor_dof), eq)
+    }
+
+    /// The error for passive joints that cannot follow the motors: `unmatched[i]` is row i's share of the motor
+    /// motion they leave unmatched. It names each such loop and the joints its rows also move through (neither
+    /// passive nor driven nor the floating base): the candidates for its passive list.
+    fn unclosable(&self, eq: &[usize], unmatched: &[f64]) -> EnvError {
+        let d = &self.data;
+        let m = d.model();
+        let nv = m.nv();
+        let jac = d.efc_jacobian().expect("the linkage's model stores its Jacobian dense");
+        let rows: Vec<usize> = (0..d.nefc())
+            .filter(|&i| {
+                d.efc_type(i) == ConstraintType::Equality && self.equalities.contains(&(d.efc_id()[i] as usize))
+            })
+            .collect();
+        let mut msgs = Vec::new();
+        for (name, eqs) in &self.loop_names {
+            let mine: Vec<usize> = (0..rows.len()).filter(|&i| eqs.contains(&eq[i])).collect();
+            let worst = mine.iter().map(|&i| unmatched[i]).fold(0.0, f64::max);
+            if worst <= JACOBIAN_TOL {
+                continue;
+            }
+            let mut also: Vec<&str> = Vec::new();
+            for dof in 0..nv {
+                let joint = m.dof_jntid()[dof] as usize;
+                let known = self.passive_dof.contains(&dof) || self.motor_dof.contains(&dof);
+                let moves = mine.iter().any(|&i| jac[rows[i] * nv + dof].abs() > 1e-9);
+                if moves && !known && m.jnt_type(joint) != JointType::Free {
+                    let n = m.name_of(ObjType::Joint, joint).unwrap_or("(unnamed)");
+                    if !also.contains(&n) {
+                        also.push(n);
+                    }
+                }
+            }
+            let hint = if also.is_empty() {
+                "no other joint moves it: the loop is overconstrained or a passive joint is the wrong one".to_string()
+            } else {
+                format!("it also moves through {}: add the free one(s) to its passive list", also.join(", "))
+            };
+            msgs.push(format!(
+                "loop '{name}': its passive joints cannot follow the motors (a motor's motion {worst:.1e} unmatched); {hint}"
+            ));
+        }
+        EnvError::Config(format!("{}: {}", self.spec_path, msgs.join("; ")))
     }
 
     /// The whole qpos of the stand keyframe with these motor positions and the loops closed (the base and any
@@ -201,12 +318,20 @@ impl Linkage {
     pub fn jacobian(&mut self, motors: &[f64]) -> Result<DMatrix<f64>> {
         self.close(motors)?;
         let n = self.n_motors();
-        let (_, jp, jm) = self.rows();
+        let (_, jp, jm, eq) = self.rows();
         let passive = if self.passive_dof.is_empty() {
             DMatrix::zeros(0, n)
         } else {
-            -(jp.pseudo_inverse(1e-12).map_err(|e| EnvError::Config(e.to_string()))? * jm)
+            -(jp.clone().pseudo_inverse(1e-12).map_err(|e| EnvError::Config(e.to_string()))? * &jm)
         };
+        // The closure must hold exactly, J_p q̇_p + J_m q̇_m = 0: a least-squares answer is a wrong J.
+        if !self.passive_dof.is_empty() {
+            let left = &jp * &passive + &jm;
+            let unmatched: Vec<f64> = left.row_iter().map(|r| r.abs().max()).collect();
+            if unmatched.iter().any(|&u| u > JACOBIAN_TOL) {
+                return Err(self.unclosable(&eq, &unmatched));
+            }
+        }
         Ok(DMatrix::from_fn(n, n, |i, k| match self.joint_is_passive[i] {
             Some(p) => passive[(p, k)],
             None => {
@@ -278,17 +403,16 @@ impl JointMap {
 
     /// The map of an already built linkage (identity when it has no loops).
     pub fn from_linkage(mut l: Linkage) -> Result<JointMap> {
-        if l.passive_qpos.is_empty() {
+        if l.passive.is_empty() {
             return Ok(JointMap::Identity);
         }
         let q0 = l.nominal_motors.clone();
         let j0 = l.jacobian(&q0)?;
         let mut linear = true;
+        // Probes within 0.1 rad of the stand pose: each must close, or the map is not known there.
         for k in 0..4 {
             let q: Vec<f64> = q0.iter().enumerate().map(|(i, x)| x + 0.1 * ((i + k) as f64 * 2.3).sin()).collect();
-            if let Ok(j) = l.jacobian(&q) {
-                linear &= (j - &j0).abs().max() < 1e-9;
-            }
+            linear &= (l.jacobian(&q)? - &j0).abs().max() < 1e-9;
         }
         if !linear {
             return Ok(JointMap::Solve(Box::new(l)));

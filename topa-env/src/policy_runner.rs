@@ -5,11 +5,11 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use anyhow::{bail, Result};
 use nalgebra::DMatrix;
 use trainer::policy_file::Policy;
 
 use crate::assets;
+use crate::error::{EnvError, Result};
 use crate::indices::RobotIndices;
 use crate::linkage::JointMap;
 use crate::observation::{Block, ObsLayout};
@@ -43,9 +43,7 @@ fn policy_robot(meta: &trainer::policy_file::PolicyMeta) -> Result<PathBuf> {
     let named = meta.robot.as_deref().filter(|r| r.ends_with(".toml"));
     Ok(match named {
         Some(r) => assets::resolve_path(r),
-        None => {
-            assets::resolve_path(ModelKind::of_policy(meta.robot.as_deref()).map_err(anyhow::Error::msg)?.spec_path())
-        }
+        None => assets::resolve_path(ModelKind::of_policy(meta.robot.as_deref())?.spec_path()),
     })
 }
 
@@ -53,7 +51,8 @@ impl PolicyRunner {
     pub fn load(path: &Path, name: &str) -> Result<Self> {
         let policy = Policy::load(path)?;
         let m = &policy.meta;
-        let spec_path = policy_robot(m).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let refuse = |message: String| EnvError::Policy { path: path.to_path_buf(), message };
+        let spec_path = policy_robot(m).map_err(|e| refuse(e.to_string()))?;
         let (trained_on, trained_model) = RobotSpec::load(&spec_path)?;
         let (robot, model) = match &trained_on.approximates {
             Some(real) => RobotSpec::load(real)?,
@@ -62,40 +61,33 @@ impl PolicyRunner {
         let n = robot.n_motors();
         // The observation the policy was trained on: the paper's, and a height scan if its config had one.
         let trained = crate::EnvConfig::from_table(&m.provenance.config.env)
-            .map_err(|e| anyhow::anyhow!("{}: its training config: {e}", path.display()))?;
+            .map_err(|e| refuse(format!("its training config: {e}")))?;
         let layout = ObsLayout::new(n).with_scan(trained.height_scan.grid());
         if m.obs_dim != layout.dim() || m.action_dim != n {
-            bail!(
-                "{}: a {}→{} policy cannot drive {} ({} observations → {n} motor targets)",
-                path.display(),
+            return Err(refuse(format!(
+                "a {}→{} policy cannot drive {} ({} observations → {n} motor targets)",
                 m.obs_dim,
                 m.action_dim,
                 robot.name,
                 layout.dim()
-            );
+            )));
         }
         let map = if trained_on.approximates.is_some() {
             for (a, b) in trained_on.motors.iter().zip(&robot.motors) {
                 if a.drives != b.joint {
-                    bail!(
+                    return Err(EnvError::Config(format!(
                         "{}: its motor '{}' drives '{}', not {}'s joint '{}'",
-                        trained_on.name,
-                        a.actuator,
-                        a.drives,
-                        robot.name,
-                        b.joint
-                    );
+                        trained_on.name, a.actuator, a.drives, robot.name, b.joint
+                    )));
                 }
             }
             let joint_map = JointMap::new(&robot, &model)?;
             let (Some(j), Some(inv)) = (joint_map.matrix(n), joint_map.inverse_matrix(n)) else {
-                bail!(
-                    "{}: a policy trained on {} needs {}'s linkage to be linear to map its joint-space actions; \
-                     this one is nonlinear",
-                    path.display(),
-                    trained_on.name,
-                    robot.name
-                );
+                return Err(refuse(format!(
+                    "a policy trained on {} needs {}'s linkage to be linear to map its joint-space actions; this \
+                     one is nonlinear",
+                    trained_on.name, robot.name
+                )));
             };
             Some((j, inv))
         } else {

@@ -439,10 +439,13 @@ fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result
                     format!("loop '{}': '{p}' is driven by an actuator, so it is not passive", l.name.get_ref()),
                 ));
             }
-            if !matches!(m.jnt_type(j), JointType::Hinge | JointType::Slide) {
+            if !matches!(m.jnt_type(j), JointType::Hinge | JointType::Slide | JointType::Ball) {
                 return Err(src.at(
                     l.passive.span(),
-                    format!("loop '{}': passive joint '{p}' must be a hinge or a slide", l.name.get_ref()),
+                    format!(
+                        "loop '{}': passive joint '{p}' must be a hinge, a slide or a ball joint",
+                        l.name.get_ref()
+                    ),
                 ));
             }
         }

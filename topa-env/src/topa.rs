@@ -4,6 +4,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::EnvError;
+
 /// Which MJCF variant: the real closed chain or the serial approximation most RL frameworks use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -27,13 +29,14 @@ impl ModelKind {
         }
     }
     /// The model a policy file names by its robot's name (`topa_closed`, `topa_open`).
-    pub fn of_policy(robot: Option<&str>) -> std::result::Result<ModelKind, String> {
+    pub fn of_policy(robot: Option<&str>) -> crate::Result<ModelKind> {
         match robot {
-            Some(r) => [ModelKind::Closed, ModelKind::Open]
-                .into_iter()
-                .find(|k| k.robot_name() == r)
-                .ok_or_else(|| format!("robot '{r}' is not one of this build's robots (topa_closed, topa_open)")),
-            None => Err("the policy file does not name the robot it was trained on".into()),
+            Some(r) => {
+                [ModelKind::Closed, ModelKind::Open].into_iter().find(|k| k.robot_name() == r).ok_or_else(|| {
+                    EnvError::Choice(format!("robot '{r}' is not one of this build's robots (topa_closed, topa_open)"))
+                })
+            }
+            None => Err(EnvError::Choice("the policy file does not name the robot it was trained on".into())),
         }
     }
     /// The bundled spec of this model, relative to the repository root.
@@ -53,12 +56,12 @@ impl ModelKind {
 }
 
 impl std::str::FromStr for ModelKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = EnvError;
+    fn from_str(s: &str) -> Result<Self, EnvError> {
         match s {
             "closed" => Ok(ModelKind::Closed),
             "open" => Ok(ModelKind::Open),
-            _ => Err(format!("unknown model '{s}': use 'closed' or 'open'")),
+            _ => Err(EnvError::Choice(format!("unknown model '{s}': use 'closed' or 'open'"))),
         }
     }
 }

@@ -6,7 +6,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use rayon::prelude::*;
-use trainer::vec_env::{perturbation_dim, EnvSnapshot, EpisodeStats, PerturbationChannel, StepTiming, VecEnv};
+use trainer::vec_env::{
+    perturbation_dim, EnvFailure, EnvSnapshot, EpisodeStats, PerturbationChannel, StepTiming, VecEnv,
+};
 use trainer::{SignedPermutation, Symmetry};
 
 use crate::error::{EnvError, Result};
@@ -125,7 +127,7 @@ impl<T: Task> VecEnv for BatchEnv<T> {
         self.act_dim
     }
 
-    fn reset(&mut self) -> anyhow::Result<()> {
+    fn reset(&mut self) -> std::result::Result<(), EnvFailure> {
         let od = self.obs_dim;
         let (tasks, obs, episodes) = (&mut self.tasks, &mut self.obs, &mut self.episodes);
         let run = || {
@@ -139,7 +141,7 @@ impl<T: Task> VecEnv for BatchEnv<T> {
         Ok(run_on(&self.pool, run)?)
     }
 
-    fn step(&mut self, actions: &[f32]) -> anyhow::Result<()> {
+    fn step(&mut self, actions: &[f32]) -> std::result::Result<(), EnvFailure> {
         let (n, od, ad) = (self.tasks.len(), self.obs_dim, self.act_dim);
         if actions.len() != n * ad {
             return Err(
@@ -263,7 +265,7 @@ impl<T: Task> VecEnv for BatchEnv<T> {
     fn perturbation_mirror(&self) -> Option<SignedPermutation> {
         self.tasks[0].perturbation_mirror()
     }
-    fn set_perturbations(&mut self, p: &[f32]) -> anyhow::Result<()> {
+    fn set_perturbations(&mut self, p: &[f32]) -> std::result::Result<(), EnvFailure> {
         let pd = perturbation_dim(&self.perturbation_channels());
         if pd == 0 || p.len() != pd * self.tasks.len() {
             return Err(EnvError::Shape(format!(
@@ -300,7 +302,7 @@ impl<T: Task> VecEnv for BatchEnv<T> {
         std::mem::take(&mut self.timing)
     }
 
-    fn load_state(&mut self, s: &EnvSnapshot) -> anyhow::Result<()> {
+    fn load_state(&mut self, s: &EnvSnapshot) -> std::result::Result<(), EnvFailure> {
         let n = self.tasks.len();
         if s.obs.len() != self.obs.len() || s.f64s.len() != n * s.f64_width || s.u64s.len() != n * s.u64_width {
             return Err(EnvError::Shape(format!(

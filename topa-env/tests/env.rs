@@ -312,9 +312,9 @@ fn a_model_too_small_for_its_contacts_stops_the_batch_with_the_fix() {
         "<include file=\"common/sensors.xml\"/>\n  <size nconmax=\"4\"/>",
     );
     let model = Arc::new(mujoco::Model::from_xml_string(&small, &dir).unwrap());
-    assert_eq!(model.raw().nconmax, 4);
+    assert_eq!(model.nconmax(), 4);
     let mut v = topa_env::vec_env::robot_batch_on(model, &quiet(ModelKind::Closed), 2, 1, 1).unwrap();
-    let err = (|| -> anyhow::Result<()> {
+    let err = (|| -> Result<(), trainer::vec_env::EnvFailure> {
         v.reset()?;
         for _ in 0..50 {
             v.step(&[0.0; 20])?;

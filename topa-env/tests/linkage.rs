@@ -139,3 +139,79 @@ fn the_solver_stays_on_the_robots_branch_across_the_ranges() {
         }
     }
 }
+
+/// TopA's closed MJCF as text, with each ankle rod's included file inlined through `rod` (its joint line in, the
+/// line to use out), and the stand keyframe's rod angles replaced by `key_rod` (the angle in, its qpos values out).
+fn closed_mjcf_with_rods(
+    rod: impl Fn(&str) -> String,
+    key_rod: impl Fn(f64) -> String,
+) -> (String, std::path::PathBuf) {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/mjcf");
+    let mut xml = std::fs::read_to_string(dir.join("topa_closed.xml")).unwrap();
+    for side in ["l", "r"] {
+        let inc = format!("<include file=\"closed/{side}_ankle_rod.xml\"/>");
+        let body = std::fs::read_to_string(dir.join(format!("closed/{side}_ankle_rod.xml"))).unwrap();
+        let joint = format!("<joint name=\"{side}_ankle_rod\" class=\"ankle_rod\"/>");
+        assert!(xml.contains(&inc) && body.contains(&joint), "the fixture no longer matches TopA's MJCF");
+        let inner = body.replace("<mujoco>", "").replace("</mujoco>", "").replace(&joint, &rod(side));
+        xml = xml.replace(&inc, &inner);
+    }
+    // The keyframe lists each leg as hip roll, yaw, pitch, knee, ankle pitch, ankle crank, ankle rod.
+    let (start, end) = (xml.find("qpos=\"").unwrap() + 6, xml.find("\"\n         ctrl=").unwrap());
+    let vals: Vec<f64> = xml[start..end].split_whitespace().map(|v| v.parse().unwrap()).collect();
+    assert_eq!(vals.len(), 7 + 2 * 7);
+    let mut out: Vec<String> = vals[..7].iter().map(|v| v.to_string()).collect();
+    for leg in vals[7..].chunks(7) {
+        out.extend(leg[..6].iter().map(|v| v.to_string()));
+        out.push(key_rod(leg[6]));
+    }
+    xml.replace_range(start..end, &out.join(" "));
+    (xml, dir)
+}
+
+/// Cassie's achilles rods are ball-jointed: TopA's ankle rods made ball joints (the keyframe's rod angles the same
+/// rotations as quaternions) must give the same map, the paper's M, and a Jacobian that matches the closed loop.
+#[test]
+fn a_ball_joint_in_a_loop_gives_the_same_map() {
+    let (spec, _) = linkage(ModelKind::Closed);
+    let (xml, dir) = closed_mjcf_with_rods(
+        |side| format!("<joint name=\"{side}_ankle_rod\" type=\"ball\" damping=\"0\" armature=\"0\"/>"),
+        |a| format!("{} 0 {} 0", (a / 2.0).cos(), (a / 2.0).sin()),
+    );
+    let model = mujoco::Model::from_xml_string(&xml, &dir).unwrap();
+    let rod = model.id(mujoco::ObjType::Joint, "l_ankle_rod").unwrap();
+    assert_eq!(model.jnt_type(rod), mujoco::JointType::Ball);
+    let mut l = Linkage::new(&spec, &model).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+    for _ in 0..10 {
+        let q = random_motors(&mut rng);
+        let want = topa::motor_to_joint(&<[f64; N_MOTORS]>::try_from(q.clone()).unwrap());
+        let got = l.joints(&q).unwrap();
+        for i in 0..N_MOTORS {
+            assert!((got[i] - want[i]).abs() < 1e-6, "joint {i}: {} vs M·q {}", got[i], want[i]);
+        }
+        common::jacobian_checked_by_finite_differences(&mut l, &q);
+    }
+    let map = topa_env::linkage::JointMap::from_linkage(l).unwrap();
+    assert!(map.matrix(N_MOTORS).is_some(), "the ball-jointed parallelogram is still linear");
+}
+
+/// A passive set that leaves out a joint its loop moves through cannot close the loop as the motors move: the
+/// least-squares J it would give has the wrong sign (Cassie with its achilles ball joint left out gave +0.99 where
+/// the loop gives −0.99). It must be an error naming the loop and the missing joint.
+#[test]
+fn a_passive_set_missing_a_joint_is_an_error_naming_it() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/robots/topa_closed.toml");
+    let (mut spec, model) = RobotSpec::load(&path).unwrap();
+    for l in &mut spec.loops {
+        l.passive.retain(|p| !p.ends_with("ankle_rod"));
+    }
+    let err = match Linkage::new(&spec, &model).and_then(topa_env::linkage::JointMap::from_linkage) {
+        Ok(_) => panic!("a loop without its rod joint was accepted"),
+        Err(e) => e.to_string(),
+    };
+    for want in ["loop 'l_knee_ankle'", "l_ankle_rod", "loop 'r_knee_ankle'", "r_ankle_rod", "passive list"] {
+        assert!(err.contains(want), "{want} missing from: {err}");
+    }
+    assert!(!err.contains("l_ankle_pitch,") && !err.contains("knee,"), "names only the missing joints: {err}");
+}

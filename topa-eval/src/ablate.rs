@@ -4,7 +4,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{ensure, Context, Result};
 use serde::{Deserialize, Serialize};
 
 use super::groups;
@@ -14,6 +13,7 @@ use super::report;
 use super::results::{one, Group, PolicyResults, PushGrid};
 use super::settings::EvalSettings;
 use super::tracking;
+use crate::error::{ensure, invalid, Error, Result};
 use crate::merge::Mergeable;
 use topa_env::policy_runner::PolicyRunner;
 
@@ -63,9 +63,9 @@ impl Extent {
             self.tracking_starts >= 1,
             "--tracking-starts must be at least 1 (initial states per tracking command)"
         );
-        push::axis(self.push_range_n, self.push_step_n)
-            .map(|_| ())
-            .with_context(|| format!("--push-range {} N with --push-step {} N", self.push_range_n, self.push_step_n))
+        push::axis(self.push_range_n, self.push_step_n).map(|_| ()).map_err(|e| {
+            Error::file(format!("--push-range {} N with --push-step {} N", self.push_range_n, self.push_step_n), e)
+        })
     }
     /// The paper's push grid (±30 N), whatever its step: its mean t_fall values are comparable with ours.
     pub fn paper_push_range(&self) -> bool {
@@ -257,13 +257,13 @@ pub fn section(a: &Ablation, kind: &str) -> Result<String> {
             None => String::new(),
         }),
         "terrain" => Ok(a.terrain.as_ref().map_or(String::new(), super::terrain_report::markdown)),
-        _ => anyhow::bail!("no report section {kind:?}: use headline, claims, summary, field, field_tables or terrain"),
+        _ => invalid!("no report section {kind:?}: use headline, claims, summary, field, field_tables or terrain"),
     }
 }
 
 /// Writes ablation.{md,json}, per-policy CSVs, and each group's mean heatmaps (standing and walking) into `out`.
 pub fn write(a: &Ablation, out: &Path) -> Result<()> {
-    std::fs::create_dir_all(out)?;
+    std::fs::create_dir_all(out).map_err(Error::io("creating", out))?;
     report::write_text(out, "ablation.md", &markdown(a)?)?;
     report::write_json(out, "ablation.json", a)?;
     let mut seen: Vec<(Group, usize)> = Vec::new();
@@ -345,7 +345,7 @@ mod tests {
         let negative = Extent { push_range_n: -1.0, ..Extent::full() };
         assert!(negative.check().unwrap_err().to_string().contains("--push-range"));
         let uneven = Extent { push_range_n: 25.0, push_step_n: 10.0, ..Extent::full() };
-        assert!(format!("{:#}", uneven.check().unwrap_err()).contains("not a multiple"));
+        assert!(crate::error::chain(&uneven.check().unwrap_err()).contains("not a multiple"));
     }
 
     fn one(name: &str, policy: &str, t_fall: f64) -> PolicyResults {
@@ -426,9 +426,11 @@ mod tests {
         let o: Ablation = serde_json::from_slice(&std::fs::read(dir.join("old.json")).unwrap()).unwrap();
         let t = &o.results[0].tracking[0];
         assert_eq!((o.extent.tracking_starts, t.starts, t.falls, t.stood_still, t.fall_count()), (1, 1, None, None, 1));
-        assert!(format!("{:#}", merge(&[c.clone(), dir.join("old.json")]).unwrap_err()).contains("another protocol"));
+        assert!(
+            crate::error::chain(&merge(&[c.clone(), dir.join("old.json")]).unwrap_err()).contains("another protocol")
+        );
 
-        let err = |files: &[PathBuf]| format!("{:#}", merge(files).unwrap_err());
+        let err = |files: &[PathBuf]| crate::error::chain(&merge(files).unwrap_err());
         let quick = write("quick.json", Extent::quick(), vec![one("C", "c3.json", 7.0)]);
         assert!(err(&[c.clone(), quick]).contains("another protocol"));
         let mut other = settings.clone();
@@ -472,7 +474,7 @@ mod tests {
         }
         assert_eq!(merge(&[dir.join("same.json")]).unwrap().results[0].weights_crc32, Some(crc));
         assert!(merge(&[dir.join("unrecorded.json")]).is_ok());
-        let stale = format!("{:#}", merge(&[dir.join("stale.json")]).unwrap_err());
+        let stale = crate::error::chain(&merge(&[dir.join("stale.json")]).unwrap_err());
         assert!(stale.contains("now holds") && stale.contains(shipped), "{stale}");
         // A file that is not on this machine cannot be checked: let through.
         let mut elsewhere = ablation(Some(7));
@@ -502,7 +504,7 @@ mod tests {
             assert_eq!(check_attached_weights(&a, &measured_weights(&a)).is_ok(), ok, "{measured:?}");
         }
         let a = Ablation { field: Some(field(Some(crc ^ 1))), ..ablation(Some(crc)) };
-        let e = format!("{:#}", check_attached_weights(&a, &measured_weights(&a)).unwrap_err());
+        let e = crate::error::chain(&check_attached_weights(&a, &measured_weights(&a)).unwrap_err());
         assert!(e.contains("--field") && e.contains("topa field"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }

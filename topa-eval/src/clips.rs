@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
 use topa_env::policy_runner::PolicyRunner;
 
+use crate::error::{Error, Result};
 use crate::play::PlayOptions;
 use crate::settings::EvalSettings;
 use crate::terrain::TerrainResult;
@@ -37,7 +37,7 @@ pub fn course(
         v.advance(t, env, &text)
     };
     crate::course::run(r, map, s, &[speed], Some(&mut watch))?;
-    rec.ok_or_else(|| anyhow::anyhow!("the course run rendered no frame"))?.finish()
+    rec.ok_or_else(|| Error::Video("the course run rendered no frame".into()))?.finish()
 }
 
 /// The hardest tile every run crossed without a fall (ties: the later type, stairs and obstacles before flat):

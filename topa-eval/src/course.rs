@@ -7,7 +7,6 @@
 
 use std::collections::HashSet;
 
-use anyhow::Result;
 use mujoco::ObjType;
 use serde::{Deserialize, Serialize};
 use topa_env::course::{Course, WALL_PREFIX};
@@ -16,6 +15,7 @@ use topa_env::{RobotEnv, VecEnv};
 
 use super::driver::Driver;
 use super::settings::EvalSettings;
+use crate::error::{ensure, Result};
 
 /// No progress along the path for this long is an intervention ("stuck"), s.
 pub const STUCK_S: f64 = 20.0;
@@ -133,12 +133,11 @@ pub fn run(
     speeds: &[f64],
     mut watch: Option<Watch>,
 ) -> Result<CourseResult> {
-    anyhow::ensure!(!speeds.is_empty(), "--speeds: give at least one top speed");
+    ensure!(!speeds.is_empty(), "--speeds: give at least one top speed");
     let mut cfg = s.env_config(runner)?;
     cfg.termination.enabled = false; // falls are interventions, counted here
     let ranges = cfg.commands.clone();
-    let drivers =
-        speeds.iter().map(|&v| Driver::new(v, &ranges)).collect::<Result<Vec<_>, _>>().map_err(anyhow::Error::msg)?;
+    let drivers = speeds.iter().map(|&v| Driver::new(v, &ranges)).collect::<Result<Vec<_>>>()?;
     let (model, friction) = course.compile(runner.robot())?;
     let friction = std::sync::Arc::new(friction);
     let walls: HashSet<usize> = (0..model.ngeom())

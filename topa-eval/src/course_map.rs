@@ -3,12 +3,12 @@
 
 use std::path::Path;
 
-use anyhow::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use topa_env::course::Course;
 
 use super::course::CourseResult;
+use crate::error::Result;
 use topa_train::plots::{err, register_font};
 
 /// The map with the runs of `result`, as PNG.

@@ -6,9 +6,8 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
-
 use crate::ablate::{self, Ablation};
+use crate::error::{bad_file, invalid, Error, Result};
 
 const OPEN: &str = "<!-- generated: ";
 const CLOSE: &str = "<!-- end generated -->";
@@ -32,18 +31,21 @@ pub fn blocks(text: &str) -> Result<Vec<Block>> {
     let mut from = 0;
     while let Some(i) = find_line(text, from, OPEN) {
         let line = line_of(i);
-        let head_end = text[i..].find("-->").map(|e| i + e).with_context(|| {
-            format!("line {line}: the marker `{OPEN}…` has no closing `-->`; write `{OPEN}REPORT SECTION -->`")
+        let head_end = text[i..].find("-->").map(|e| i + e).ok_or_else(|| {
+            Error::bad_file(format!(
+                "line {line}: the marker `{OPEN}…` has no closing `-->`; write `{OPEN}REPORT SECTION -->`"
+            ))
         })?;
         let words: Vec<&str> = text[i + OPEN.len()..head_end].split_whitespace().collect();
         let [report, section] = words[..] else {
-            bail!("line {line}: a generated block names a report and a section, e.g. `{OPEN}docs/results/current/ablation.json headline -->`")
+            bad_file!("line {line}: a generated block names a report and a section, e.g. `{OPEN}docs/results/current/ablation.json headline -->`")
         };
         let body_start = text[head_end..].find('\n').map_or(text.len(), |n| head_end + n + 1);
-        let end = find_line(text, body_start, CLOSE)
-            .with_context(|| format!("line {line}: the generated block has no `{CLOSE}` line after it"))?;
+        let end = find_line(text, body_start, CLOSE).ok_or_else(|| {
+            Error::bad_file(format!("line {line}: the generated block has no `{CLOSE}` line after it"))
+        })?;
         if let Some(inner) = find_line(text, body_start, OPEN).filter(|&o| o < end) {
-            bail!(
+            bad_file!(
                 "line {}: a generated block opens inside the one of line {line}; close that one first",
                 line_of(inner)
             );
@@ -75,7 +77,8 @@ fn render_blocks(text: &str, blocks: &[Block], dir: &Path) -> Result<String> {
             reports.push((b.report.clone(), load(&dir.join(&b.report), b.line)?));
         }
         let a = &reports.iter().find(|(r, _)| *r == b.report).expect("loaded above").1;
-        let body = ablate::section(a, &b.section).with_context(|| format!("line {}: {}", b.line, b.report))?;
+        let body =
+            ablate::section(a, &b.section).map_err(|e| Error::file(format!("line {}: {}", b.line, b.report), e))?;
         out.push_str(&text[at..b.body.start]);
         out.push_str(body.trim());
         out.push('\n');
@@ -87,9 +90,10 @@ fn render_blocks(text: &str, blocks: &[Block], dir: &Path) -> Result<String> {
 
 fn load(path: &Path, line: usize) -> Result<Ablation> {
     let text = std::fs::read_to_string(path)
-        .with_context(|| format!("line {line}: cannot read the report {}", path.display()))?;
-    serde_json::from_str(&text)
-        .with_context(|| format!("line {line}: {} is not an ablation.json written by `topa ablate`", path.display()))
+        .map_err(|e| Error::file(format!("line {line}: cannot read the report {}", path.display()), e))?;
+    serde_json::from_str(&text).map_err(|e| {
+        Error::file(format!("line {line}: {} is not an ablation.json written by `topa ablate`", path.display()), e)
+    })
 }
 
 /// `topa docs`: rewrites the generated blocks of each page (atomically, only when they changed); with `check`,
@@ -97,10 +101,11 @@ fn load(path: &Path, line: usize) -> Result<Ablation> {
 pub fn run(pages: &[PathBuf], check: bool) -> Result<()> {
     let mut stale = Vec::new();
     for page in pages {
-        let text = std::fs::read_to_string(page).with_context(|| format!("cannot read {}", page.display()))?;
+        let text = std::fs::read_to_string(page).map_err(Error::io("cannot read", &page))?;
         let dir = page.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        let found = blocks(&text).with_context(|| format!("{}", page.display()))?;
-        let new = render_blocks(&text, &found, dir).with_context(|| format!("{}", page.display()))?;
+        let in_page = |e: Error| Error::file(page.display().to_string(), e);
+        let found = blocks(&text).map_err(in_page)?;
+        let new = render_blocks(&text, &found, dir).map_err(in_page)?;
         let n = found.len();
         if new == text {
             println!("{}: {n} generated block(s), up to date", page.display());
@@ -112,7 +117,7 @@ pub fn run(pages: &[PathBuf], check: bool) -> Result<()> {
         }
     }
     if !stale.is_empty() {
-        bail!(
+        invalid!(
             "generated blocks differ from their reports in {}: run `topa docs {}`",
             stale.join(", "),
             stale.join(" ")
@@ -143,20 +148,20 @@ mod tests {
     #[test]
     fn malformed_markers_name_their_line() {
         let unclosed = "x\n\n<!-- generated: r.json headline -->\ntable\n";
-        let e = format!("{:#}", blocks(unclosed).unwrap_err());
+        let e = crate::error::chain(&blocks(unclosed).unwrap_err());
         assert!(e.contains("line 3") && e.contains("end generated"), "{e}");
         let no_section = "<!-- generated: r.json -->\n<!-- end generated -->\n";
-        let e = format!("{:#}", blocks(no_section).unwrap_err());
+        let e = crate::error::chain(&blocks(no_section).unwrap_err());
         assert!(e.contains("line 1") && e.contains("report and a section"), "{e}");
         let nested = "<!-- generated: r.json a -->\n<!-- generated: r.json b -->\n<!-- end generated -->\n";
-        let e = format!("{:#}", blocks(nested).unwrap_err());
+        let e = crate::error::chain(&blocks(nested).unwrap_err());
         assert!(e.contains("line 2") && e.contains("inside"), "{e}");
     }
 
     #[test]
     fn a_missing_report_is_an_error_naming_it() {
         let t = "<!-- generated: nowhere/ablation.json headline -->\n<!-- end generated -->\n";
-        let e = format!("{:#}", render(t, Path::new("/nonexistent")).unwrap_err());
+        let e = crate::error::chain(&render(t, Path::new("/nonexistent")).unwrap_err());
         assert!(e.contains("nowhere/ablation.json") && e.contains("line 1"), "{e}");
     }
 }

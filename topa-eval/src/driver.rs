@@ -25,12 +25,12 @@ pub struct Driver {
 impl Driver {
     /// A driver at `top_speed` within `ranges` (the policy's training command ranges); an error if the speed is
     /// not a forward command the policy was trained on.
-    pub fn new(top_speed: f64, ranges: &CommandConfig) -> Result<Driver, String> {
+    pub fn new(top_speed: f64, ranges: &CommandConfig) -> crate::Result<Driver> {
         let [_, vmax] = ranges.lin_vel_x;
         if !(top_speed > 0.0 && top_speed <= vmax + 1e-9) {
-            return Err(format!(
+            crate::error::invalid!(
                 "speed {top_speed} m/s is outside the policy's forward command range (0, {vmax}] m/s it was trained on"
-            ));
+            );
         }
         let yaw = ranges.ang_vel_z[1].min(-ranges.ang_vel_z[0]).min(1.0);
         let side = ranges.lin_vel_y[1].min(-ranges.lin_vel_y[0]).min(0.2);
@@ -92,7 +92,7 @@ mod tests {
         let straight = d.command(&c, 5.0, [5.0, 0.0], 0.0)[0];
         let corner = d.command(&c, 19.5, [19.5, 0.0], 0.0)[0];
         assert!(corner < 0.7 * straight, "{corner} vs {straight}");
-        let err = Driver::new(0.9, &CommandConfig::default()).unwrap_err();
+        let err = Driver::new(0.9, &CommandConfig::default()).unwrap_err().to_string();
         assert!(err.contains("0.9") && err.contains("0.7"), "{err}");
         assert!(Driver::new(0.0, &CommandConfig::default()).is_err());
     }

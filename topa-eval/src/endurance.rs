@@ -4,7 +4,6 @@
 //! a shove from a passer-by. A fall is an intervention: the robot is stood up where it lies and the run goes on.
 //! Each intervention is put down to what was happening: a push, a turn, walking or standing.
 
-use anyhow::Result;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -15,6 +14,7 @@ use trainer::actor_critic::standard_normal;
 
 use super::course::LimitCounter;
 use super::settings::EvalSettings;
+use crate::error::{ensure, Result};
 
 /// The operator's habits.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -90,7 +90,7 @@ pub fn run(
     runs: usize,
     op: &Operator,
 ) -> Result<Vec<EnduranceRun>> {
-    anyhow::ensure!(minutes > 0.0 && runs > 0, "--minutes and --runs must be positive");
+    ensure!(minutes > 0.0 && runs > 0, "--minutes and --runs must be positive");
     let mut cfg = s.env_config(runner)?;
     cfg.termination.enabled = false;
     let ranges = cfg.commands.clone();

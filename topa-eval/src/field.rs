@@ -6,7 +6,6 @@
 use crate::merge::Mergeable;
 use std::path::{Path, PathBuf};
 
-use anyhow::{ensure, Result};
 use serde::{Deserialize, Serialize};
 use topa_env::course::Course;
 use topa_env::policy_runner::PolicyRunner;
@@ -17,6 +16,7 @@ use super::groups::Stat;
 use super::report::{self, PaperTables};
 use super::results::Group;
 use super::settings::{EvalSettings, Sim2SimMode};
+use crate::error::{ensure, Result};
 
 /// What the field test runs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -61,8 +61,7 @@ pub struct Field {
 /// Runs the course and the endurance run for each (group, policy) in each mode.
 pub fn run(policies: &[(Group, PathBuf)], base: &EvalSettings, extent: &FieldExtent) -> Result<Field> {
     ensure!(!policies.is_empty(), "give at least one policy with --o, --c or --ca");
-    let map =
-        Course::load(&topa_env::assets::resolve_path(&extent.course.to_string_lossy())).map_err(anyhow::Error::msg)?;
+    let map = Course::load(&topa_env::assets::resolve_path(&extent.course.to_string_lossy()))?;
     let mut results = Vec::new();
     for (group, path) in policies {
         let mut runner = PolicyRunner::load(path, group.label())?;
@@ -502,7 +501,7 @@ mod tests {
         let b = write("b.json", &field(vec![policy(Group::O, "o1", vec![run(0.7, false, 900.0, 3, 2.0)], 5)]));
         let m = merge(&[a.clone(), b.clone()]).unwrap();
         assert_eq!(m.results.iter().map(|r| r.name).collect::<Vec<_>>(), [Group::O, Group::C]);
-        let err = format!("{:#}", merge(&[a.clone(), a.clone()]).unwrap_err());
+        let err = crate::error::chain(&merge(&[a.clone(), a.clone()]).unwrap_err());
         assert!(err.contains("c1 in ideal sim2sim is in more than one file"), "{err}");
         // The same policy in another mode joins its modes: ideal first, whatever the order of the files.
         let mut realistic = field(vec![policy(Group::C, "c1", vec![run(0.7, true, 170.0, 0, 0.0)], 1)]);
@@ -519,7 +518,9 @@ mod tests {
         let mut ideal = field(vec![policy(Group::C, "c1", vec![run(0.7, true, 150.0, 0, 0.0)], 0)]);
         ideal.results[0].weights_crc32 = Some(1);
         let (r, i) = (write("r2.json", &realistic), write("i2.json", &ideal));
-        assert!(format!("{:#}", merge(&[i.clone(), r]).unwrap_err()).contains("c1 was measured with other weights"));
+        assert!(
+            crate::error::chain(&merge(&[i.clone(), r]).unwrap_err()).contains("c1 was measured with other weights")
+        );
         // An earlier file that recorded no weights takes the later file's, whichever mode came first.
         realistic.results[0].weights_crc32 = None;
         let r = write("r3.json", &realistic);
@@ -530,7 +531,7 @@ mod tests {
         let mut other = field(vec![policy(Group::CA, "ca1", vec![], 0)]);
         other.extent.endurance_minutes = 10.0;
         let o = write("o.json", &other);
-        assert!(format!("{:#}", merge(&[a, o]).unwrap_err()).contains("another protocol (course"));
+        assert!(crate::error::chain(&merge(&[a, o]).unwrap_err()).contains("another protocol (course"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

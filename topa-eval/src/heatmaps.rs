@@ -2,17 +2,17 @@
 
 use std::path::Path;
 
-use anyhow::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::results::PushGrid;
+use crate::error::{ensure, Result};
 use topa_train::plots::{err, register_font, whole_number};
 
 /// One push-grid heatmap per policy, side by side, with a shared colour bar (time to fall, s), as PNG and SVG.
 pub fn push_heatmaps(grids: &[(String, &PushGrid)], png: &Path, svg: &Path) -> Result<()> {
     register_font();
-    anyhow::ensure!(!grids.is_empty(), "no push grids to plot");
+    ensure!(!grids.is_empty(), "no push grids to plot");
     let (w, h) = (520 * grids.len() as u32 + 140, 560);
     {
         let root = BitMapBackend::new(png, (w, h)).into_drawing_area();

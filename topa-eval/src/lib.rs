@@ -27,6 +27,7 @@ pub mod course_map;
 pub mod doc_blocks;
 pub mod driver;
 pub mod endurance;
+pub mod error;
 pub mod field;
 pub mod gait;
 pub mod groups;
@@ -49,3 +50,5 @@ pub mod terrain_map;
 pub mod terrain_report;
 pub mod tracking;
 pub mod video;
+
+pub use error::{Error, Result};

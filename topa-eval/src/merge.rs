@@ -6,9 +6,9 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{ensure, Context, Result};
 use serde::de::DeserializeOwned;
 
+use crate::error::{ensure, Error, Result};
 use crate::settings::EvalSettings;
 
 /// A report that `--merge` can join.
@@ -94,10 +94,17 @@ pub fn merge<R: Mergeable>(files: &[PathBuf]) -> Result<R> {
 
 /// Reads a report of kind `R` that the flag `flag` named: one error naming the file and what to give instead.
 pub fn read<R: Mergeable>(file: &Path, flag: &str) -> Result<R> {
-    let text = std::fs::read_to_string(file).with_context(|| format!("{flag}: cannot read {}", file.display()))?;
-    serde_json::from_str(&text).with_context(|| {
+    let text =
+        std::fs::read_to_string(file).map_err(|e| Error::file(format!("{flag}: cannot read {}", file.display()), e))?;
+    serde_json::from_str(&text).map_err(|e| {
         let article = if R::FILE.starts_with(['a', 'e', 'i', 'o', 'u']) { "an" } else { "a" };
-        format!("{flag}: {} is not {article} {} written by `{}` (give that file)", file.display(), R::FILE, R::COMMAND)
+        let m = format!(
+            "{flag}: {} is not {article} {} written by `{}` (give that file)",
+            file.display(),
+            R::FILE,
+            R::COMMAND
+        );
+        Error::file(m, e)
     })
 }
 

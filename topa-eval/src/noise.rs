@@ -4,7 +4,6 @@
 //! The noise is redrawn every `interval_s` (the paper does not say how often; 0.5 s is a user changing their
 //! mind twice a second) and held in between.
 
-use anyhow::Result;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use topa_env::RobotEnv;
@@ -13,6 +12,7 @@ use trainer::actor_critic::standard_normal;
 use super::results::NoiseRow;
 use super::runner::{run_batch, Experiment};
 use super::settings::EvalSettings;
+use crate::error::Result;
 use topa_env::policy_runner::PolicyRunner;
 
 pub const LEVELS: [(f64, f64); 4] = [(0.175, 0.5), (0.35, 1.0), (0.525, 1.5), (0.7, 2.0)];

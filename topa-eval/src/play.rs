@@ -3,11 +3,11 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
 use serde::Serialize;
 use serde_json::json;
 use topa_env::{assets, RobotEnv, Task};
 
+use crate::error::Result;
 use crate::recording::Recorder;
 use crate::settings::EvalSettings;
 use crate::video::{self, VideoRecorder};

@@ -6,7 +6,6 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use topa_env::policy_runner::PolicyRunner;
 
@@ -14,6 +13,7 @@ use super::claims;
 use super::results::{RunCounts, TrackingRow};
 use super::settings::EvalSettings;
 use super::{push, tracking};
+use crate::error::{ensure, invalid, Error, Result};
 
 /// One checkpoint's policy through the tracking commands.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -71,10 +71,11 @@ impl RunProgress {
 
 /// The run's checkpoint sidecars whose iteration is a multiple of `every`, and its last one, in iteration order.
 pub fn checkpoints(run: &Path, every: usize) -> Result<Vec<(usize, PathBuf)>> {
-    anyhow::ensure!(every >= 1, "--every must be at least 1 (an iteration step between the checkpoints evaluated)");
+    ensure!(every >= 1, "--every must be at least 1 (an iteration step between the checkpoints evaluated)");
     let dir = run.join("checkpoints");
-    let entries = std::fs::read_dir(&dir)
-        .with_context(|| format!("{} has no checkpoints folder: pass a `topa train --out` folder", run.display()))?;
+    let entries = std::fs::read_dir(&dir).map_err(|e| {
+        Error::file(format!("{} has no checkpoints folder: pass a `topa train --out` folder", run.display()), e)
+    })?;
     let mut all: Vec<(usize, PathBuf)> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter_map(|p| {
@@ -85,14 +86,14 @@ pub fn checkpoints(run: &Path, every: usize) -> Result<Vec<(usize, PathBuf)>> {
         .collect();
     all.sort();
     let Some(last) = all.last().cloned() else {
-        bail!("{} holds no checkpoint (ckpt_<iteration>.json)", dir.display());
+        invalid!("{} holds no checkpoint (ckpt_<iteration>.json)", dir.display());
     };
     let mut picked: Vec<(usize, PathBuf)> = all.into_iter().filter(|(it, _)| it % every == 0).collect();
     if picked.last().is_none_or(|p| p.0 != last.0) {
         picked.push(last);
     }
     if picked.len() < 2 {
-        bail!(
+        invalid!(
             "{} keeps only {} checkpoint(s) at multiples of {every}: train with `[run] keep_checkpoints = 0` to keep \
              them all, or pass a smaller --every",
             dir.display(),
@@ -176,14 +177,12 @@ fn cached(file: &Path, protocol: &str, crc: u32) -> Option<Cached> {
 pub fn run(run: &Path, p: Protocol, settings: &EvalSettings, out: &Path) -> Result<RunProgress> {
     let name = run.file_name().map_or_else(|| run.display().to_string(), |n| n.to_string_lossy().into_owned());
     let dir = out.join("policies").join(&name);
-    std::fs::create_dir_all(&dir)?;
+    std::fs::create_dir_all(&dir).map_err(Error::io("creating", &dir))?;
     let mut snapshots = Vec::new();
     let (mut seed, mut planned) = (0, 0);
     let protocol = p.describe(settings);
     for (it, sidecar) in checkpoints(run, p.every)? {
-        let crc = trainer::tensorfile::checksum(
-            &std::fs::read(&sidecar).with_context(|| format!("cannot read {}", sidecar.display()))?,
-        );
+        let crc = trainer::tensorfile::checksum(&std::fs::read(&sidecar).map_err(Error::io("cannot read", &sidecar))?);
         let result = format!("it{it:05}.result.json");
         if let Some(c) = cached(&dir.join(&result), &protocol, crc) {
             (seed, planned) = (c.seed, c.planned_iterations);

@@ -3,13 +3,13 @@
 
 use std::path::Path;
 
-use anyhow::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::claims::{worst_component, MAX_COMPONENT_MAE};
 use super::progress::{RunProgress, Snapshot};
 use super::results::RunCounts;
+use crate::error::{ensure, Result};
 use topa_train::plots::{err, register_font, whole_number};
 
 /// Worst component MAE of a snapshot, the value its MAE bar was judged on (an infinite one plots at the top).
@@ -34,7 +34,7 @@ type Measure = (&'static str, fn(&Snapshot) -> f64, Option<f64>);
 /// The figure as PNG and SVG.
 pub fn figure(runs: &[RunProgress], png: &Path, svg: &Path) -> Result<()> {
     register_font();
-    anyhow::ensure!(runs.iter().any(|r| !r.snapshots.is_empty()), "no checkpoints to plot");
+    ensure!(runs.iter().any(|r| !r.snapshots.is_empty()), "no checkpoints to plot");
     let size = (1100, 420);
     {
         let root = BitMapBackend::new(png, size).into_drawing_area();

@@ -2,7 +2,6 @@
 //! its own frame, (F_x, F_y) on a grid from −30 to 30 N in 5 N steps (13 × 13), applied after settling for a
 //! 10 s window; the time to fall (the env's fall test) per cell, `window` where it never falls.
 
-use anyhow::{ensure, Result};
 use topa_env::RobotEnv;
 
 use super::runner::{run_batch, Experiment};
@@ -10,6 +9,7 @@ use super::settings::EvalSettings;
 use topa_env::policy_runner::PolicyRunner;
 
 use super::results::PushGrid;
+use crate::error::{ensure, Result};
 
 /// Force values from −range to +range in `step` increments.
 pub fn axis(range: f64, step: f64) -> Result<Vec<f64>> {

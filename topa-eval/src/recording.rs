@@ -8,7 +8,7 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use crate::error::{Error, Result};
 use mujoco::{Data, GeomType, Model, ObjType};
 use serde_json::{json, Value};
 
@@ -67,13 +67,10 @@ fn color(rgba: [f32; 4]) -> Value {
 impl Recorder {
     pub fn create(path: &Path, model: &Model) -> Result<Recorder> {
         let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        std::fs::create_dir_all(dir)?;
-        let tmp = dir.join(format!(
-            ".{}.tmp-{}",
-            path.file_name().context("file name")?.to_string_lossy(),
-            std::process::id()
-        ));
-        let file = File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
+        std::fs::create_dir_all(dir).map_err(Error::io("creating", dir))?;
+        let name = path.file_name().ok_or_else(|| Error::Invalid(format!("{} names no file", path.display())))?;
+        let tmp = dir.join(format!(".{}.tmp-{}", name.to_string_lossy(), std::process::id()));
+        let file = File::create(&tmp).map_err(Error::io("creating", &tmp))?;
         let mut w = mcap::Writer::new(BufWriter::new(file))?;
         let none = BTreeMap::new();
         let tf_schema = w.add_schema("foxglove.FrameTransform", "jsonschema", FRAME_TRANSFORM_SCHEMA.as_bytes())?;
@@ -104,7 +101,7 @@ impl Recorder {
         };
         self.writer
             .as_mut()
-            .context("recording already finished")?
+            .ok_or_else(|| Error::Invalid("recording already finished".into()))?
             .write_to_known_channel(&header, &serde_json::to_vec(value)?)?;
         Ok(())
     }
@@ -163,7 +160,7 @@ impl Recorder {
 
     /// A plottable message on one of `PLOT_CHANNELS`.
     pub fn write_plot(&mut self, topic: &str, t: f64, value: Value) -> Result<()> {
-        let ch = *self.plots.get(topic).with_context(|| format!("unknown recording channel {topic}"))?;
+        let ch = *self.plots.get(topic).ok_or_else(|| Error::Invalid(format!("unknown recording channel {topic}")))?;
         self.write(ch, t, &value)
     }
 
@@ -172,8 +169,7 @@ impl Recorder {
         if let Some(mut w) = self.writer.take() {
             w.finish()?;
             drop(w);
-            std::fs::rename(&self.tmp, &self.path)
-                .with_context(|| format!("moving the recording to {}", self.path.display()))?;
+            std::fs::rename(&self.tmp, &self.path).map_err(Error::io("moving the recording to", &self.path))?;
         }
         Ok(self.path.clone())
     }

@@ -5,10 +5,10 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::{Context, Result};
 use serde::Serialize;
 
 use super::results::{Group, NoiseRow, PushGrid, RunCounts, TrackingRow, COMMANDS};
+use crate::error::{Error, Result};
 
 const PAPER_TOML: &str = include_str!("../../data/paper_tables.toml");
 
@@ -33,13 +33,15 @@ pub struct PaperTables {
 }
 
 pub fn paper() -> Result<PaperTables> {
-    let v: toml::Value = toml::from_str(PAPER_TOML).context("data/paper_tables.toml")?;
+    let v: toml::Value = toml::from_str(PAPER_TOML).map_err(|e| Error::file("data/paper_tables.toml", e))?;
+    // The table is compiled in and checked by the tests: a missing entry is a broken build, named by its key.
+    let missing = |key: &str| Error::bad_file(format!("data/paper_tables.toml: {key} is missing"));
     let mut t = PaperTables::default();
     for (key, _, _) in COMMANDS {
         let row = &v["tracking"][key];
         let mut per = BTreeMap::new();
         for p in Group::ALL.map(Group::key) {
-            let a = row[p].as_array().context("tracking row")?;
+            let a = row[p].as_array().ok_or_else(|| missing("tracking row"))?;
             let num = |i: usize| a[i].as_float().or_else(|| a[i].as_integer().map(|x| x as f64)).unwrap_or(f64::NAN);
             per.insert(
                 p.to_string(),
@@ -48,20 +50,25 @@ pub fn paper() -> Result<PaperTables> {
         }
         t.tracking.insert(key.to_string(), per);
     }
-    for (p, x) in v["push"]["mean_time_to_fall_s"].as_table().context("push")? {
+    for (p, x) in v["push"]["mean_time_to_fall_s"].as_table().ok_or_else(|| missing("push"))? {
         t.push_mean_t_fall.insert(p.clone(), x.as_float().unwrap_or(f64::NAN));
     }
-    for (p, x) in v["command_noise"]["success_pct"].as_table().context("noise")? {
-        let vals =
-            x.as_array().context("noise row")?.iter().map(|y| y.as_integer().map_or(f64::NAN, |i| i as f64)).collect();
+    for (p, x) in v["command_noise"]["success_pct"].as_table().ok_or_else(|| missing("noise"))? {
+        let vals = x
+            .as_array()
+            .ok_or_else(|| missing("noise row"))?
+            .iter()
+            .map(|y| y.as_integer().map_or(f64::NAN, |i| i as f64))
+            .collect();
         t.noise_success.insert(p.clone(), vals);
     }
     let rw = &v["real_world"];
-    for (p, x) in rw["course_minutes"].as_table().context("real_world.course_minutes")? {
+    for (p, x) in rw["course_minutes"].as_table().ok_or_else(|| missing("real_world.course_minutes"))? {
         t.course_minutes.insert(p.clone(), x.as_float().unwrap_or(f64::NAN));
     }
-    t.continuous_minutes_ca =
-        rw["continuous_operation_min_CA"].as_integer().context("real_world.continuous_operation_min_CA")? as f64;
+    t.continuous_minutes_ca = rw["continuous_operation_min_CA"]
+        .as_integer()
+        .ok_or_else(|| missing("real_world.continuous_operation_min_CA"))? as f64;
     Ok(t)
 }
 
@@ -195,7 +202,7 @@ pub fn noise_markdown(results: &[(&str, &[NoiseRow])], paper: Option<&PaperTable
 
 /// Writes `value` as pretty JSON to `dir/name`.
 pub fn write_json<T: Serialize>(dir: &Path, name: &str, value: &T) -> Result<()> {
-    trainer::tensorfile::write_atomic(&dir.join(name), serde_json::to_string_pretty(value)?.as_bytes())
+    Ok(trainer::tensorfile::write_atomic(&dir.join(name), serde_json::to_string_pretty(value)?.as_bytes())?)
 }
 
 pub fn tracking_csv(rows: &[TrackingRow]) -> String {
@@ -258,7 +265,7 @@ pub fn noise_csv(rows: &[NoiseRow]) -> String {
 }
 
 pub fn write_text(dir: &Path, name: &str, text: &str) -> Result<()> {
-    trainer::tensorfile::write_atomic(&dir.join(name), text.as_bytes())
+    Ok(trainer::tensorfile::write_atomic(&dir.join(name), text.as_bytes())?)
 }
 
 #[cfg(test)]

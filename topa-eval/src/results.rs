@@ -4,10 +4,10 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use serde::{Deserialize, Serialize};
 
 use super::gait::GaitStats;
+use crate::error::{ensure, Error, Result};
 
 /// The paper's three policies: O (trained on the serial approximation), C (on the closed chain), C+A (C with the
 /// adversary). Written as "O", "C", "CA" in files and on the command line.
@@ -204,20 +204,20 @@ pub struct NoiseRow {
 }
 
 /// Policy files of one group (`group`, the flag that gave them): files as given, folders expanded to their `*.json` policies in name order.
-pub fn policy_files(group: &str, paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+pub fn policy_files(group: &str, paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for p in paths {
         if p.is_dir() {
             let mut found: Vec<PathBuf> = std::fs::read_dir(p)
-                .with_context(|| format!("reading {}", p.display()))?
+                .map_err(Error::io("reading", &p))?
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|f| f.extension().is_some_and(|x| x == "json"))
                 .collect();
             found.sort();
-            anyhow::ensure!(!found.is_empty(), "--{group} {}: no *.json policy in this folder", p.display());
+            ensure!(!found.is_empty(), "--{group} {}: no *.json policy in this folder", p.display());
             out.extend(found);
         } else {
-            anyhow::ensure!(p.is_file(), "--{group} {}: no such policy file", p.display());
+            ensure!(p.is_file(), "--{group} {}: no such policy file", p.display());
             out.push(p.clone());
         }
     }

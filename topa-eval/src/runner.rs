@@ -2,11 +2,11 @@
 //! which each env gets its own set-up (command, torso force) and per-step control, with the first fall of each
 //! env recorded. The batch is stepped on all cores; the policy acts on all envs at once.
 
-use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use topa_env::{EnvConfig, RobotEnv, VecEnv};
 
 use super::settings::EvalSettings;
+use crate::error::Result;
 use topa_env::policy_runner::PolicyRunner;
 
 /// Per-env hooks of an experiment.

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
+use crate::error::{invalid, Error, Result};
 use serde::{Deserialize, Serialize};
 use topa_env::policy_runner::PolicyRunner;
 use topa_env::sim2sim::Sim2SimConfig;
@@ -46,7 +46,7 @@ impl EvalSettings {
         c.sim2sim = s.sim2sim.clone();
         let dec = runner.policy.meta.policy_dt / c.timestep;
         if (dec - dec.round()).abs() > 1e-6 || dec.round() < 1.0 {
-            bail!(
+            invalid!(
                 "the evaluation timestep {} s does not divide the policy period {} s",
                 c.timestep,
                 runner.policy.meta.policy_dt
@@ -88,16 +88,17 @@ impl EvalSettings {
     pub fn with_sim2sim(mut self, mode: &Sim2SimMode) -> Result<Self> {
         let cfg = match mode {
             Sim2SimMode::Ideal => Sim2SimConfig::default(),
-            Sim2SimMode::Realistic => toml::from_str(REALISTIC)
-                .map_err(|e| anyhow::anyhow!("built-in configs/sim2sim/realistic.toml: {e}"))?,
+            Sim2SimMode::Realistic => {
+                toml::from_str(REALISTIC).map_err(|e| Error::file("built-in configs/sim2sim/realistic.toml", e))?
+            }
             Sim2SimMode::File(file) => {
                 let table = trainer::config::load_table(file, 0)?;
-                toml::Value::Table(table).try_into().map_err(|e| {
-                    anyhow::anyhow!("sim2sim file {}: {}", file.display(), e.to_string().replace('\n', " "))
+                toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
+                    Error::bad_file(format!("sim2sim file {}: {}", file.display(), e.to_string().replace('\n', " ")))
                 })?
             }
         };
-        cfg.validate().map_err(|e| anyhow::anyhow!("sim2sim '{mode}': {e}"))?;
+        cfg.validate().map_err(|e| Error::Invalid(format!("sim2sim '{mode}': {e}")))?;
         self.sim2sim = cfg;
         self.sim2sim_mode = mode.clone();
         Ok(self)
@@ -177,7 +178,7 @@ mod tests {
             assert_eq!(serde_json::from_str::<Sim2SimMode>(text).unwrap(), mode);
         }
         let missing = EvalSettings::default().with_sim2sim(&Sim2SimMode::File("no/such.toml".into()));
-        assert!(format!("{:#}", missing.unwrap_err()).contains("no/such.toml"));
+        assert!(crate::error::chain(&missing.unwrap_err()).contains("no/such.toml"));
     }
 
     #[test]
@@ -198,7 +199,8 @@ mod tests {
         let s = EvalSettings::default().with_sim2sim(&Sim2SimMode::File(own)).unwrap();
         assert_eq!((s.integrator(), s.timestep()), (Implicit, 0.0025));
         let e = EvalSettings::default().with_sim2sim(&Sim2SimMode::File(bad.clone())).unwrap_err();
-        assert!(format!("{e:#}").contains(&bad.display().to_string()), "{e:#}");
+        let e = crate::error::chain(&e);
+        assert!(e.contains(&bad.display().to_string()), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -3,7 +3,6 @@
 //! (no fall), progress along the command, tracking MAE and foot slip; the tiles sit at the soles' nominal
 //! friction, so that the map measures the ground's shape alone.
 
-use anyhow::Result;
 use serde::{Deserialize, Serialize};
 use topa_env::policy_runner::PolicyRunner;
 use topa_env::terrain::{BoxContacts, TerrainConfig, TileKind};
@@ -11,6 +10,7 @@ use topa_env::{EnvConfig, RobotEnv};
 
 use super::runner::{run_batch, Experiment};
 use super::settings::EvalSettings;
+use crate::error::{ensure, Result};
 
 /// The commands each tile is walked with: (name, v_x m/s, v_y m/s, w_z rad/s).
 pub const COMMANDS: [(&str, [f64; 3]); 2] = [("walk", [0.5, 0.0, 0.0]), ("turn", [0.5, 0.0, 0.5])];
@@ -160,9 +160,9 @@ impl Experiment for Walk {
 /// Every type × `levels` difficulties × both commands × `runs` starts, `window_s` each (the protocol's).
 pub fn run(runner: &mut PolicyRunner, settings: &EvalSettings, p: &Protocol) -> Result<TerrainResult> {
     let (levels, runs, window_s) = (p.levels, p.runs, p.window_s);
-    anyhow::ensure!(levels >= 2, "terrain evaluation needs at least 2 difficulty levels (--levels ≥ 2)");
-    anyhow::ensure!(runs >= 1, "terrain evaluation needs at least one run per cell (--runs ≥ 1)");
-    anyhow::ensure!(window_s > 0.0, "terrain evaluation needs a positive run length (--seconds)");
+    ensure!(levels >= 2, "terrain evaluation needs at least 2 difficulty levels (--levels ≥ 2)");
+    ensure!(runs >= 1, "terrain evaluation needs at least one run per cell (--runs ≥ 1)");
+    ensure!(window_s > 0.0, "terrain evaluation needs a positive run length (--seconds)");
     let mut cfg = settings.env_config(runner)?;
     cfg.terrain = evaluation_terrain(runner.training_config(), p);
     cfg.validate()?;

@@ -2,11 +2,11 @@
 
 use std::path::Path;
 
-use anyhow::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::terrain::TerrainResult;
+use crate::error::Result;
 use topa_train::plots::{err, register_font};
 
 /// The success heatmap of `r` as PNG and SVG.

@@ -7,7 +7,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{ensure, Result};
 use serde::{Deserialize, Serialize};
 use topa_env::policy_runner::PolicyRunner;
 
@@ -15,6 +14,7 @@ use super::intervals::{self, Resampling, Scores};
 use super::results::Group;
 use super::settings::EvalSettings;
 use super::terrain::{self, TerrainResult};
+use crate::error::{ensure, Result};
 use crate::merge::Mergeable;
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -233,7 +233,7 @@ fn comparison(better: &GroupRow, base: &GroupRow, who: &str) -> String {
 
 /// Writes terrain.{md,json} and each policy's success heatmap into `out`; returns the Markdown.
 pub fn write(r: &TerrainReport, out: &Path) -> Result<String> {
-    std::fs::create_dir_all(out)?;
+    std::fs::create_dir_all(out).map_err(crate::Error::io("creating", out))?;
     let md = markdown(r);
     super::report::write_text(out, "terrain.md", &format!("# Terrain\n\n{md}"))?;
     super::report::write_json(out, "terrain.json", r)?;

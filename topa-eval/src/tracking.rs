@@ -19,7 +19,6 @@
 //! one-reset run): a policy with two behaviours from rest — walking off or standing still on a turn — makes a
 //! single reset a coin flip. A row reports the mean over the starts, the falls and the starts that stood still.
 
-use anyhow::Result;
 use topa_env::state::RobotState;
 use topa_env::RobotEnv;
 
@@ -27,6 +26,7 @@ use super::gait::GaitAccumulator;
 use super::results::{TrackingRow, COMMANDS};
 use super::runner::{run_batch, Experiment};
 use super::settings::EvalSettings;
+use crate::error::{ensure, Result};
 use topa_env::policy_runner::PolicyRunner;
 
 /// A start "stands still" when its mean velocity along the command stays below this share of the command.
@@ -189,7 +189,7 @@ pub fn run(
     transient_s: f64,
     starts: usize,
 ) -> Result<Vec<TrackingRow>> {
-    anyhow::ensure!(starts >= 1, "tracking needs at least one start per command (--tracking-starts ≥ 1)");
+    ensure!(starts >= 1, "tracking needs at least one start per command (--tracking-starts ≥ 1)");
     let mut cfg = settings.env_config(runner)?;
     cfg.termination.enabled = false; // the robot stays on the floor after a fall and the window goes on
     let k = COMMANDS.len();

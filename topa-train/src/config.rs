@@ -3,15 +3,17 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
 use topa_env::EnvConfig;
 use trainer::checkpoint;
 use trainer::TrainConfig;
 
+use crate::error::{Error, Result};
+
 /// A training config file with its `[env]` table checked by the task: every problem names the file and the key.
 pub fn load_config(path: &Path) -> Result<(TrainConfig, EnvConfig)> {
     let cfg = TrainConfig::load(path)?;
-    let env = env_config(&cfg).with_context(|| format!("config {}", path.display()))?;
+    let env = EnvConfig::from_table(&cfg.env)
+        .map_err(|source| Error::EnvConfig { what: format!("config {}", path.display()), source })?;
     Ok((cfg, env))
 }
 
@@ -35,8 +37,10 @@ pub fn with_env(cfg: &TrainConfig, env: &EnvConfig) -> TrainConfig {
 /// Observation values a run adds to the policy it starts from: a height scan turned on (its values come after the
 /// paper's, so the forked policy starts blind to it and learns to use it); nothing else may change the size.
 pub fn added_inputs(side: &checkpoint::Sidecar, env: &EnvConfig) -> Result<usize> {
-    let source =
-        env_config(&side.config).context("the checkpoint's own [env] config does not parse with this build")?;
+    let source = EnvConfig::from_table(&side.config.env).map_err(|source| Error::EnvConfig {
+        what: "the checkpoint's own [env] config does not parse with this build".into(),
+        source,
+    })?;
     let (nx, ny) = env.height_scan.grid();
     Ok(if env.height_scan.enabled && !source.height_scan.enabled { nx * ny } else { 0 })
 }

@@ -8,9 +8,10 @@ use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
+
+use crate::error::{run_error, Error, Result};
 
 /// TensorBoard's default smoothing weight.
 pub const SMOOTHING: f64 = 0.6;
@@ -35,17 +36,17 @@ impl Run {
     /// A run folder (or its `metrics.csv`).
     pub fn load(path: &Path) -> Result<Run> {
         if !path.exists() {
-            bail!("{}: no such run (give a run folder holding metrics.csv, or the file)", path.display());
+            run_error!("{}: no such run (give a run folder holding metrics.csv, or the file)", path.display());
         }
         let csv = if path.is_dir() { path.join("metrics.csv") } else { path.to_path_buf() };
         let (header, rows) = trainer::metrics::read_csv(&csv)?;
         for need in ["iteration", "samples", "phase", "episodes", "mean_return"] {
             if !header.iter().any(|h| h == need) {
-                bail!("{} has no column {need}: is it a metrics.csv written by `topa train`?", csv.display());
+                run_error!("{} has no column {need}: is it a metrics.csv written by `topa train`?", csv.display());
             }
         }
         if rows.is_empty() {
-            bail!("{} has no iterations yet", csv.display());
+            run_error!("{} has no iterations yet", csv.display());
         }
         let columns =
             header.iter().enumerate().map(|(i, h)| (h.clone(), rows.iter().map(|r| r[i]).collect())).collect();
@@ -273,7 +274,9 @@ pub type Layout = Vec<(String, [i32; 4])>;
 
 /// Draws the dashboard of `groups` to `png` and an SVG beside it; returns the PNG's plotting areas.
 pub fn render(groups: &[Group], png: &Path) -> Result<Layout> {
-    anyhow::ensure!(groups.iter().any(|g| !g.runs.is_empty()), "no runs to plot");
+    if !groups.iter().any(|g| !g.runs.is_empty()) {
+        run_error!("no runs to plot");
+    }
     crate::plots::register_font();
     let panels = panels(groups);
     let rows = panels.len().div_ceil(COLS) as u32;
@@ -485,14 +488,18 @@ pub fn plot(runs: &[PathBuf], groups: &[String], out: &Path) -> Result<Layout> {
         all.push(Group { name: run.name.clone(), runs: vec![run] });
     }
     for spec in groups {
-        let (name, list) = spec
-            .split_once('=')
-            .with_context(|| format!("--group takes NAME=RUN,RUN…, got '{spec}' (e.g. C=runs/C-s1,runs/C-s2)"))?;
+        let (name, list) = spec.split_once('=').ok_or_else(|| {
+            Error::Invalid(format!("--group takes NAME=RUN,RUN…, got '{spec}' (e.g. C=runs/C-s1,runs/C-s2)"))
+        })?;
         let runs =
             list.split(',').filter(|s| !s.is_empty()).map(|r| Run::load(Path::new(r))).collect::<Result<Vec<_>>>()?;
-        anyhow::ensure!(!runs.is_empty(), "--group {name} names no run");
+        if runs.is_empty() {
+            return Err(Error::Invalid(format!("--group {name} names no run")));
+        }
         all.push(Group { name: name.to_string(), runs });
     }
-    anyhow::ensure!(!all.is_empty(), "give runs (folders holding metrics.csv) or --group NAME=RUN,RUN…");
+    if all.is_empty() {
+        return Err(Error::Invalid("give runs (folders holding metrics.csv) or --group NAME=RUN,RUN…".into()));
+    }
     render(&all, out)
 }

@@ -10,7 +10,7 @@
 //! let resolved = topa_train::with_resolved_env(&cfg)?;
 //! assert!(resolved.env.len() > cfg.env.len());
 //! assert_eq!(topa_train::config::env_config(&resolved)?.robot, env.robot);
-//! # anyhow::Ok(())
+//! # Ok::<(), topa_train::Error>(())
 //! ```
 //!
 //! ```no_run
@@ -23,11 +23,12 @@
 //! };
 //! let outcome = topa_train::Run::open(&start)?.train(|log| eprintln!("iteration {}", log.iteration))?;
 //! println!("policy: {}", outcome.policy.display());
-//! # anyhow::Ok(())
+//! # Ok::<(), topa_train::Error>(())
 //! ```
 
 pub mod config;
 pub mod dashboard;
+pub mod error;
 #[cfg(feature = "mpi")]
 mod mpi_comm;
 pub mod plots;
@@ -36,5 +37,6 @@ pub mod ranks;
 pub mod run;
 
 pub use config::{load_config, with_resolved_env};
+pub use error::{Error, Result};
 pub use policy::{export_checkpoint, export_policy};
 pub use run::{Outcome, Run, Start};

@@ -19,9 +19,9 @@ pub struct MpiComm {
 
 impl MpiComm {
     /// Initialises MPI (threads other than the main one never call it: rayon's workers only step envs).
-    pub fn init() -> anyhow::Result<MpiComm> {
+    pub fn init() -> crate::Result<MpiComm> {
         let (universe, _) = mpi::initialize_with_threading(mpi::Threading::Funneled)
-            .ok_or_else(|| anyhow::anyhow!("MPI was already initialised in this process"))?;
+            .ok_or_else(|| crate::Error::Ranks("MPI was already initialised in this process".into()))?;
         let world = universe.world();
         Ok(MpiComm { _universe: universe, world, stats: StatsCell::default() })
     }

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Result;
+use crate::error::Result;
 use topa_env::TaskKind;
 use trainer::checkpoint;
 use trainer::policy_file::{self, PolicyMeta, Provenance};
@@ -49,7 +49,7 @@ pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> 
             segments: t.segments.clone(),
         },
     )?;
-    policy_file::save(&out.join("policy"), &t.policy.ac.actor, &t.policy.normalizer, meta)
+    Ok(policy_file::save(&out.join("policy"), &t.policy.ac.actor, &t.policy.normalizer, meta)?)
 }
 
 /// Exports the policy of a kept checkpoint (its sidecar) as `<stem>.{safetensors,json}`, e.g. to evaluate a run
@@ -72,7 +72,7 @@ pub fn export_checkpoint(sidecar: &Path, stem: &Path) -> Result<PathBuf> {
             segments: side.segments.clone(),
         },
     )?;
-    checkpoint::save_policy(&side, &loaded, stem, meta)
+    Ok(checkpoint::save_policy(&side, &loaded, stem, meta)?)
 }
 
 /// Today's date (UTC) as YYYY-MM-DD, for provenance records.

@@ -3,10 +3,11 @@
 
 use std::rc::Rc;
 
-use anyhow::{bail, Result};
 use topa_env::EnvConfig;
 use trainer::comm::{Comm, Single};
 use trainer::{TrainConfig, Trainer, VecEnv};
+
+use crate::error::{Error, Result};
 
 /// The ranks of this run: MPI's when launched by `mpirun`/`srun` with the `mpi` feature, else one process.
 pub fn ranks() -> Result<Rc<dyn Comm>> {
@@ -19,10 +20,10 @@ pub fn ranks() -> Result<Rc<dyn Comm>> {
         #[cfg(feature = "mpi")]
         Some(_) => Ok(Rc::new(crate::mpi_comm::MpiComm::init()?)),
         #[cfg(not(feature = "mpi"))]
-        Some(n) => bail!(
+        Some(n) => Err(Error::Ranks(format!(
             "started as one of {n} MPI ranks, but this topa was built without MPI: build it with \
              `cargo build --release --features mpi` (scripts/setup.sh installs Open MPI when TOPA_MPI=1)"
-        ),
+        ))),
     }
 }
 
@@ -32,7 +33,9 @@ pub fn rank_env(cfg: &TrainConfig, env: &EnvConfig, comm: &dyn Comm) -> Result<B
     let (size, rank) = (comm.size(), comm.rank());
     let n = cfg.run.num_envs;
     if !n.is_multiple_of(size) {
-        bail!("run.num_envs = {n} does not split over {size} MPI ranks: choose a multiple of {size}");
+        return Err(Error::Ranks(format!(
+            "run.num_envs = {n} does not split over {size} MPI ranks: choose a multiple of {size}"
+        )));
     }
     let share = n / size;
     Ok(topa_env::vec_env::task_batch(env, (rank * share) as u64, share, cfg.run.seed, 0)?)
@@ -50,7 +53,10 @@ pub fn check_ranks_agree(t: &Trainer) -> Result<u32> {
     let crc = trainer::tensorfile::checksum(&bytes);
     let all = t.comm.gather_bytes(&crc.to_le_bytes());
     if t.comm.rank() == 0 && all.iter().any(|b| b[..] != crc.to_le_bytes()) {
-        bail!("the MPI ranks' policy weights differ at iteration {} (a bug: please report it)", t.iteration);
+        return Err(Error::Ranks(format!(
+            "the MPI ranks' policy weights differ at iteration {} (a bug: please report it)",
+            t.iteration
+        )));
     }
     Ok(crc)
 }

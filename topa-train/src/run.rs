@@ -6,13 +6,13 @@ use std::path::{Path, PathBuf};
 use std::rc::Rc;
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
 use trainer::checkpoint;
 use trainer::comm::Comm;
 use trainer::metrics::MetricsWriter;
 use trainer::{IterationLog, Trainer};
 
 use crate::config::{added_inputs, env_config, load_config, with_env};
+use crate::error::{invalid, Error, Result};
 use crate::policy::export_policy;
 use crate::ranks::{check_ranks_agree, rank_env, ranks};
 
@@ -119,7 +119,7 @@ impl Run {
                 let curve = match crate::dashboard::learning_curve(m.csv_path(), &png) {
                     Ok(()) => Some(png),
                     Err(e) => {
-                        log::warn!("no learning curve: {e:#}");
+                        log::warn!("no learning curve: {e}");
                         None
                     }
                 };
@@ -153,7 +153,7 @@ type Opened = (Trainer, PathBuf, String, Option<usize>, Option<String>);
 
 fn resume(s: &Start, dir: &Path, comm: &Rc<dyn Comm>) -> Result<Opened> {
     if s.config.is_some() || s.robot.is_some() || s.seed.is_some() || s.adversary || s.init_from.is_some() {
-        bail!(
+        invalid!(
             "--resume continues a run with its own saved config: drop --config/--model/--robot/--seed/--adversary/--init-from"
         );
     }
@@ -168,10 +168,10 @@ fn resume(s: &Start, dir: &Path, comm: &Rc<dyn Comm>) -> Result<Opened> {
     }
     if let Some(n) = s.iterations {
         if side.with_adversary {
-            bail!("--iterations cannot change an adversary run: its length is the [adversary] schedule's");
+            invalid!("--iterations cannot change an adversary run: its length is the [adversary] schedule's");
         }
         if n < side.iteration {
-            bail!("--iterations {n} is below the {} iterations {} has already run", side.iteration, dir.display());
+            invalid!("--iterations {n} is below the {} iterations {} has already run", side.iteration, dir.display());
         }
         cfg.run.iterations = n;
     }
@@ -188,7 +188,10 @@ fn resume(s: &Start, dir: &Path, comm: &Rc<dyn Comm>) -> Result<Opened> {
 }
 
 fn start(s: &Start, comm: &Rc<dyn Comm>) -> Result<Opened> {
-    let path = s.config.as_deref().context("give --config configs/<preset>.toml (or --resume DIR)")?;
+    let path = s
+        .config
+        .as_deref()
+        .ok_or_else(|| Error::Invalid("give --config configs/<preset>.toml (or --resume DIR)".into()))?;
     let (mut cfg, mut env) = load_config(path)?;
     if let Some(r) = &s.robot {
         env.robot = r.clone();
@@ -201,7 +204,7 @@ fn start(s: &Start, comm: &Rc<dyn Comm>) -> Result<Opened> {
     }
     if let Some(n) = s.iterations {
         if s.adversary {
-            bail!(
+            invalid!(
                 "--iterations sets a plain run's length; an adversary run's length is its [adversary] schedule \
                  (phase1_policy_iters + cycles × (phase2_adversary_iters + phase3_policy_iters)): change those"
             );
@@ -210,7 +213,7 @@ fn start(s: &Start, comm: &Rc<dyn Comm>) -> Result<Opened> {
     }
     // The run's config.toml, checkpoints and policy record every task key, not only the preset's.
     let cfg = with_env(&cfg, &env);
-    cfg.validate().map_err(anyhow::Error::msg)?;
+    cfg.validate().map_err(trainer::Error::from)?;
     trainer::nn::init_threads(trainer::nn::resolve_threads(cfg.run.threads))?;
     let out = s.out.clone().unwrap_or_else(|| {
         PathBuf::from(format!(
@@ -221,14 +224,14 @@ fn start(s: &Start, comm: &Rc<dyn Comm>) -> Result<Opened> {
         ))
     });
     if out.join("checkpoints/latest.json").exists() {
-        bail!(
+        invalid!(
             "{} already holds a run: continue it with `topa train --resume {}` or choose another --out",
             out.display(),
             out.display()
         );
     }
     if comm.rank() == 0 {
-        std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+        std::fs::create_dir_all(&out).map_err(Error::io("creating", &out))?;
         trainer::tensorfile::write_atomic(&out.join("config.toml"), toml::to_string_pretty(&cfg)?.as_bytes())?;
     }
     let mut t = Trainer::new(cfg.clone(), rank_env(&cfg, &env, comm.as_ref())?, s.adversary)?;

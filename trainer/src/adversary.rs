@@ -27,24 +27,26 @@ impl AttackMirror {
         perturbation: SignedPermutation,
         obs_dim: usize,
         bounds: &[f32],
-    ) -> Result<Self, String> {
+    ) -> crate::Result<Self> {
         if obs.len() != obs_dim || perturbation.len() != bounds.len() {
-            return Err(format!(
+            return Err(crate::Error::Invalid(format!(
                 "the task's mirrors cover {} observation and {} perturbation values, it has {obs_dim} and {}",
                 obs.len(),
                 perturbation.len(),
                 bounds.len()
-            ));
+            )));
         }
         if !obs.is_involution() || !perturbation.is_involution() {
-            return Err("the task's observation or perturbation mirror is not its own inverse".into());
+            return Err(crate::Error::Invalid(
+                "the task's observation or perturbation mirror is not its own inverse".into(),
+            ));
         }
         if let Some(i) = (0..bounds.len()).find(|&i| bounds[perturbation.perm[i]] != bounds[i]) {
-            return Err(format!(
+            return Err(crate::Error::Invalid(format!(
                 "perturbation value {i} is bounded at {} and its mirror image at {}: mirrored attacks need equal bounds",
                 bounds[i],
                 bounds[perturbation.perm[i]]
-            ));
+            )));
         }
         Ok(AttackMirror { obs, perturbation })
     }
@@ -143,9 +145,12 @@ mod tests {
         let mut p = [0.1, 0.2, 0.3, 0.4];
         m.apply(&mut p);
         assert_eq!(p, [0.1, 0.2, 0.4, 0.3]);
-        let err = AttackMirror::new(sign(&[1.0, -1.0]), swap.clone(), 2, &[1.0, 2.0]).unwrap_err();
+        let err = AttackMirror::new(sign(&[1.0, -1.0]), swap.clone(), 2, &[1.0, 2.0]).unwrap_err().to_string();
         assert!(err.contains("bounded at 1") && err.contains("equal bounds"), "{err}");
-        assert!(AttackMirror::new(sign(&[1.0]), swap.clone(), 2, &[1.0, 1.0]).unwrap_err().contains("cover 1"));
+        assert!(AttackMirror::new(sign(&[1.0]), swap.clone(), 2, &[1.0, 1.0])
+            .unwrap_err()
+            .to_string()
+            .contains("cover 1"));
         let not_inverse = SignedPermutation { perm: vec![1, 0], sign: vec![1.0, -1.0] };
         assert!(AttackMirror::new(sign(&[1.0, 1.0]), not_inverse, 2, &[1.0, 1.0]).is_err());
     }

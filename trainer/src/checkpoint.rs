@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use crate::error::{bad_file, invalid, Error, Result};
 use candle_core::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 
@@ -122,7 +122,7 @@ fn load_agent_widened(
         m.push(widen(read("adam_m.")?, false));
         v.push(widen(read("adam_v.")?, true));
     }
-    a.opt.set_state(AdamState { step: meta.adam_step, m, v }).map_err(anyhow::Error::msg)?;
+    a.opt.set_state(AdamState { step: meta.adam_step, m, v })?;
     let d = a.normalizer.dim() - extra;
     let (mut mean, mut m2) =
         (l.f64(&format!("{prefix}.normalizer.mean"), &[d])?, l.f64(&format!("{prefix}.normalizer.m2"), &[d])?);
@@ -130,7 +130,7 @@ fn load_agent_widened(
     if extra > 0 {
         let first = a.normalizer.batch_moments(first_obs);
         if first.count < 1.0 {
-            bail!("no observations to take the {extra} new inputs' statistics from");
+            invalid!("no observations to take the {extra} new inputs' statistics from");
         }
         for i in d..d + extra {
             mean.push(first.mean[i]);
@@ -138,7 +138,7 @@ fn load_agent_widened(
             m2.push((first.m2[i] / first.count).max(1e-6) * count.max(1.0));
         }
     }
-    a.normalizer.set_stats(mean, m2, count).map_err(anyhow::Error::msg)?;
+    a.normalizer.set_stats(mean, m2, count)?;
     a.lr = meta.learning_rate;
     Ok(())
 }
@@ -221,7 +221,8 @@ pub fn save(t: &Trainer, dir: &Path, command: &str, keep: usize) -> Result<PathB
 
 /// Removes all but the newest `keep` checkpoint pairs.
 fn prune(dir: &Path, keep: usize) -> Result<()> {
-    let mut stems: Vec<String> = std::fs::read_dir(dir)?
+    let mut stems: Vec<String> = std::fs::read_dir(dir)
+        .map_err(Error::io("cannot list", dir))?
         .filter_map(|e| e.ok()?.file_name().into_string().ok())
         .filter_map(|n| n.strip_suffix(".json").filter(|s| s.starts_with("ckpt_")).map(str::to_string))
         .collect();
@@ -238,10 +239,15 @@ fn prune(dir: &Path, keep: usize) -> Result<()> {
 /// The sidecar path `latest.json` in `dir` points at.
 pub fn latest(dir: &Path) -> Result<PathBuf> {
     let p = dir.join("latest.json");
-    let text = std::fs::read_to_string(&p).with_context(|| {
-        format!("no checkpoint in {}: {} is missing (was the run started with --out here?)", dir.display(), p.display())
+    let text = std::fs::read_to_string(&p).map_err(|e| {
+        let m = format!(
+            "no checkpoint in {}: {} is missing (was the run started with --out here?)",
+            dir.display(),
+            p.display()
+        );
+        Error::file(m, e)
     })?;
-    let l: Latest = serde_json::from_str(&text).with_context(|| format!("{} is corrupt", p.display()))?;
+    let l: Latest = serde_json::from_str(&text).map_err(|e| Error::file(format!("{} is corrupt", p.display()), e))?;
     Ok(dir.join(l.sidecar))
 }
 
@@ -255,7 +261,7 @@ pub fn read_sidecar(path: &Path) -> Result<(Sidecar, Loaded)> {
 pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
     let (ranks, rank) = (t.comm.size(), t.comm.rank());
     if side.ranks != ranks || side.rank_rngs.len() + 1 != side.ranks {
-        bail!(
+        bad_file!(
             "this checkpoint was written by {} MPI rank(s) and this run has {ranks}: resume it with `mpirun -np {} \
              topa train --resume …` (each rank continues its own envs), or start a new run from its policy with \
              `--init-from` (weights, optimiser and normaliser; fresh envs)",
@@ -265,7 +271,7 @@ pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
     }
     let n = t.env.num_envs();
     if side.num_envs != n || side.obs_dim != t.env.obs_dim() || side.action_dim != t.env.action_dim() {
-        bail!(
+        bad_file!(
             "checkpoint is for {} envs × {} observations × {} actions, this run has {n} × {} × {}",
             side.num_envs,
             side.obs_dim,
@@ -275,7 +281,7 @@ pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
         );
     }
     if side.with_adversary != t.adversary.is_some() {
-        bail!(
+        bad_file!(
             "checkpoint {} an adversary; resume it {} --adversary",
             if side.with_adversary { "has" } else { "has no" },
             if side.with_adversary { "with" } else { "without" }
@@ -295,10 +301,10 @@ pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
         u64s: l.u64("env.u64", &[rows, uw])?[rank * n * uw..(rank + 1) * n * uw].to_vec(),
         obs: l.f32("env.obs", &[rows, od])?[rank * n * od..(rank + 1) * n * od].to_vec(),
     };
-    t.env.load_state(&snap)?;
+    t.env.load_state(&snap).map_err(Error::env("restoring the environments' state"))?;
     let rng = if rank == 0 { &side.rng } else { &side.rank_rngs[rank - 1] };
     if rng.len() != crate::rng::RNG_WORDS {
-        bail!("checkpoint RNG state has {} words, expected {}", rng.len(), crate::rng::RNG_WORDS);
+        bad_file!("checkpoint RNG state has {} words, expected {}", rng.len(), crate::rng::RNG_WORDS);
     }
     t.rng = crate::rng::load_rng(rng);
     t.iteration = side.iteration;
@@ -316,7 +322,7 @@ pub fn restore(t: &mut Trainer, side: &Sidecar, l: &Loaded) -> Result<()> {
 /// first ones mean the same, e.g. a height scan added to a blind policy); 0 demands equal sizes.
 pub fn init_policy_from(t: &mut Trainer, side: &Sidecar, l: &Loaded, extra_inputs: usize) -> Result<()> {
     if side.obs_dim + extra_inputs != t.env.obs_dim() || side.action_dim != t.env.action_dim() {
-        bail!(
+        bad_file!(
             "the checkpoint's policy has {}→{} inputs/outputs, this task needs {}→{}{}",
             side.obs_dim,
             side.action_dim,
@@ -326,7 +332,11 @@ pub fn init_policy_from(t: &mut Trainer, side: &Sidecar, l: &Loaded, extra_input
         );
     }
     if side.config.network != t.cfg.network {
-        bail!("the checkpoint's network ({:?}) differs from this config's ({:?})", side.config.network, t.cfg.network);
+        bad_file!(
+            "the checkpoint's network ({:?}) differs from this config's ({:?})",
+            side.config.network,
+            t.cfg.network
+        );
     }
     load_agent_widened(l, "policy", &mut t.policy, &side.policy, extra_inputs, t.env.obs())?;
     let phase1 = if t.adversary.is_some() { t.cfg.adversary.phase1_policy_iters } else { t.cfg.run.iterations };
@@ -348,12 +358,10 @@ pub fn save_policy(side: &Sidecar, l: &Loaded, stem: &Path, meta: crate::policy_
     let actor = crate::policy_file::read_actor(l, "policy.", &dims)?;
     let mut normalizer = crate::normalizer::Normalizer::new(side.obs_dim, None);
     let d = side.obs_dim;
-    normalizer
-        .set_stats(
-            l.f64("policy.normalizer.mean", &[d])?,
-            l.f64("policy.normalizer.m2", &[d])?,
-            side.policy.normalizer_count,
-        )
-        .map_err(anyhow::Error::msg)?;
+    normalizer.set_stats(
+        l.f64("policy.normalizer.mean", &[d])?,
+        l.f64("policy.normalizer.m2", &[d])?,
+        side.policy.normalizer_count,
+    )?;
     crate::policy_file::save(stem, &actor, &normalizer, meta)
 }

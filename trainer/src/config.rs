@@ -269,6 +269,12 @@ pub enum ConfigError {
     Parse { path: String, message: String },
     #[error("config {path}: {message}")]
     Invalid { path: String, message: String },
+    /// A setting out of its range (the message names the key); `load` adds the file.
+    #[error("{0}")]
+    Setting(String),
+    /// A config saved in a checkpoint or policy sidecar that does not parse.
+    #[error("{0}")]
+    Saved(String),
 }
 
 impl TrainConfig {
@@ -282,35 +288,35 @@ impl TrainConfig {
         let cfg: TrainConfig = toml::Value::Table(table)
             .try_into()
             .map_err(|e: toml::de::Error| ConfigError::Parse { path: p.clone(), message: one_line(&e.to_string()) })?;
-        cfg.validate().map_err(|message| ConfigError::Invalid { path: p, message })?;
+        cfg.validate().map_err(|e| ConfigError::Invalid { path: p, message: e.to_string() })?;
         Ok(cfg)
     }
 
     /// A config saved in a checkpoint or policy sidecar (JSON).
-    pub fn from_json(v: &serde_json::Value) -> Result<TrainConfig, String> {
-        let table: toml::Table = serde_json::from_value(v.clone()).map_err(|e| e.to_string())?;
-        toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| one_line(&e.to_string()))
+    pub fn from_json(v: &serde_json::Value) -> Result<TrainConfig, ConfigError> {
+        let table: toml::Table = serde_json::from_value(v.clone()).map_err(|e| ConfigError::Saved(e.to_string()))?;
+        toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| ConfigError::Saved(one_line(&e.to_string())))
     }
 
     /// The learner's own keys (the task checks `env`).
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ConfigError> {
         let r = &self.run;
         if r.num_envs == 0 || r.steps_per_env == 0 {
-            return Err("run.num_envs and run.steps_per_env must be at least 1".into());
+            return Err(ConfigError::Setting("run.num_envs and run.steps_per_env must be at least 1".into()));
         }
         if r.checkpoint_every == 0 {
-            return Err("run.checkpoint_every must be at least 1".into());
+            return Err(ConfigError::Setting("run.checkpoint_every must be at least 1".into()));
         }
         let p = &self.ppo;
         if p.epochs == 0 || p.minibatches == 0 {
-            return Err("ppo.epochs and ppo.minibatches must be at least 1".into());
+            return Err(ConfigError::Setting("ppo.epochs and ppo.minibatches must be at least 1".into()));
         }
         if p.minibatches > r.num_envs * r.steps_per_env {
-            return Err("ppo.minibatches exceeds the number of samples per iteration".into());
+            return Err(ConfigError::Setting("ppo.minibatches exceeds the number of samples per iteration".into()));
         }
         for (k, v) in [("ppo.gamma", p.gamma), ("ppo.gae_lambda", p.gae_lambda)] {
             if !(0.0..=1.0).contains(&v) {
-                return Err(format!("{k} must be in [0, 1], got {v}"));
+                return Err(ConfigError::Setting(format!("{k} must be in [0, 1], got {v}")));
             }
         }
         for (k, v) in [
@@ -321,15 +327,18 @@ impl TrainConfig {
             ("network.init_noise_std", self.network.init_noise_std),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(format!("{k} must be positive, got {v}"));
+                return Err(ConfigError::Setting(format!("{k} must be positive, got {v}")));
             }
         }
         if self.network.actor_hidden.is_empty() || self.network.critic_hidden.is_empty() {
-            return Err("network hidden layer lists must not be empty".into());
+            return Err(ConfigError::Setting("network hidden layer lists must not be empty".into()));
         }
         let a = &self.adversary;
         if !(0.0..=1.0).contains(&a.attack_share) {
-            return Err(format!("adversary.attack_share must be in [0, 1], got {}", a.attack_share));
+            return Err(ConfigError::Setting(format!(
+                "adversary.attack_share must be in [0, 1], got {}",
+                a.attack_share
+            )));
         }
         for (k, v) in [
             ("ppo.entropy_coef", p.entropy_coef),
@@ -338,11 +347,11 @@ impl TrainConfig {
             ("adversary.policy_entropy_coef", a.policy_entropy_coef),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(format!("{k} must be ≥ 0, got {v}"));
+                return Err(ConfigError::Setting(format!("{k} must be ≥ 0, got {v}")));
             }
         }
         if self.losses.symmetry_coef < 0.0 || self.losses.decay_coef < 0.0 {
-            return Err("losses.symmetry_coef and losses.decay_coef must be ≥ 0".into());
+            return Err(ConfigError::Setting("losses.symmetry_coef and losses.decay_coef must be ≥ 0".into()));
         }
         Ok(())
     }
@@ -400,8 +409,8 @@ mod tests {
         assert_eq!(c.env["timestep"].as_float(), Some(0.004));
         // Settings that belong to the task are refused in the learner's tables, by name.
         let bad = serde_json::json!({"adversary": {"task_bound": 12.0}});
-        assert!(TrainConfig::from_json(&bad).unwrap_err().contains("task_bound"));
+        assert!(TrainConfig::from_json(&bad).unwrap_err().to_string().contains("task_bound"));
         let bad = serde_json::json!({"adversary": {"cylces": 2}});
-        assert!(TrainConfig::from_json(&bad).unwrap_err().contains("cylces"));
+        assert!(TrainConfig::from_json(&bad).unwrap_err().to_string().contains("cylces"));
     }
 }

@@ -23,6 +23,7 @@ pub mod adversary;
 pub mod checkpoint;
 pub mod comm;
 pub mod config;
+pub mod error;
 pub mod metrics;
 pub mod nn;
 pub mod normalizer;
@@ -39,6 +40,7 @@ pub mod train;
 pub mod vec_env;
 
 pub use config::TrainConfig;
+pub use error::{Error, Result};
 pub use symmetry::{SignedPermutation, Symmetry};
 pub use train::{IterationLog, Trainer};
 pub use vec_env::{EnvSnapshot, EpisodeStats, PerturbationChannel, StepTiming, VecEnv};

@@ -5,7 +5,7 @@ use std::fs::OpenOptions;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use crate::error::{Error, Result};
 
 use crate::ppo::UpdateStats;
 use crate::train::IterationLog;
@@ -16,6 +16,7 @@ pub struct MetricsWriter {
     columns: Vec<String>,
     perturbation_columns: usize,
     tb: tboard::EventWriter<std::fs::File>,
+    tb_dir: PathBuf,
 }
 
 fn update_columns(prefix: &str) -> Vec<String> {
@@ -64,7 +65,7 @@ impl MetricsWriter {
         perturbation_names: &[String],
         resume_iteration: Option<usize>,
     ) -> Result<Self> {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(Error::io("creating", &dir))?;
         let mut columns: Vec<String> = [
             "iteration",
             "phase",
@@ -116,9 +117,10 @@ impl MetricsWriter {
             _ => String::new(),
         };
         crate::tensorfile::write_atomic(&csv_path, format!("{header}\n{kept}").as_bytes())?;
-        let csv = OpenOptions::new().append(true).open(&csv_path)?;
-        let tb = open_events(&dir.join("tb"), resume_iteration)?;
-        Ok(MetricsWriter { csv_path, csv, columns, perturbation_columns, tb })
+        let csv = OpenOptions::new().append(true).open(&csv_path).map_err(Error::io("cannot open", &csv_path))?;
+        let tb_dir = dir.join("tb");
+        let tb = open_events(&tb_dir, resume_iteration)?;
+        Ok(MetricsWriter { csv_path, csv, columns, perturbation_columns, tb, tb_dir })
     }
 
     pub fn csv_path(&self) -> &Path {
@@ -155,16 +157,19 @@ impl MetricsWriter {
         values.extend(e.mean_terms.iter().copied());
         values.resize(self.columns.len(), f64::NAN);
         let row: Vec<String> = values.iter().map(|v| if v.is_nan() { String::new() } else { format!("{v}") }).collect();
-        writeln!(self.csv, "{}", row.join(","))?;
-        self.csv.flush()?;
+        let io = || Error::io("writing", &self.csv_path);
+        writeln!(self.csv, "{}", row.join(",")).map_err(io())?;
+        self.csv.flush().map_err(io())?;
         let step = log.iteration as i64;
         for (name, v) in self.columns.iter().zip(&values).skip(1) {
             if v.is_nan() || (e.episodes == 0 && is_episode_column(name)) {
                 continue;
             }
-            self.tb.write_scalar(step, &tb_tag(name), *v as f32).map_err(|e| anyhow::anyhow!("TensorBoard: {e}"))?;
+            self.tb
+                .write_scalar(step, &tb_tag(name), *v as f32)
+                .map_err(|source| Error::TensorBoard { dir: self.tb_dir.clone(), source })?;
         }
-        self.tb.flush().map_err(|e| anyhow::anyhow!("TensorBoard: {e}"))?;
+        self.tb.flush().map_err(|source| Error::TensorBoard { dir: self.tb_dir.clone(), source })?;
         Ok(())
     }
 }
@@ -174,7 +179,7 @@ impl MetricsWriter {
 /// TensorBoard (or any other reader) would otherwise show them twice. The new file is complete before an old one
 /// goes, and records are keyed by (step, tag), so an interrupted rewrite leaves no duplicate either.
 fn open_events(tb: &Path, resume_iteration: Option<usize>) -> Result<tboard::EventWriter<std::fs::File>> {
-    let te = |e: tboard::Error| anyhow::anyhow!("TensorBoard event file in {}: {e}", tb.display());
+    let te = |source: tboard::Error| Error::TensorBoard { dir: tb.to_path_buf(), source };
     let mut old: Vec<PathBuf> = match (resume_iteration, std::fs::read_dir(tb)) {
         (Some(_), Ok(entries)) => entries
             .filter_map(|e| e.ok().map(|e| e.path()))
@@ -185,7 +190,7 @@ fn open_events(tb: &Path, resume_iteration: Option<usize>) -> Result<tboard::Eve
     old.sort();
     let mut kept: std::collections::BTreeMap<(i64, String), tboard::tensorboard::Event> = Default::default();
     for f in &old {
-        let file = std::fs::File::open(f).with_context(|| format!("cannot read {}", f.display()))?;
+        let file = std::fs::File::open(f).map_err(Error::io("cannot read", &f))?;
         // A run killed mid-write leaves a torn last record: what precedes it is whole (CRC-checked).
         for event in tboard::SummaryReader::new(std::io::BufReader::new(file)).map_while(|e| e.ok()) {
             let Some(tboard::tensorboard::event::What::Summary(summary)) = &event.what else { continue };
@@ -201,7 +206,7 @@ fn open_events(tb: &Path, resume_iteration: Option<usize>) -> Result<tboard::Eve
     }
     writer.flush().map_err(te)?;
     for f in old.iter().filter(|f| Some(*f) != writer.filename()) {
-        std::fs::remove_file(f).with_context(|| format!("cannot remove {}", f.display()))?;
+        std::fs::remove_file(f).map_err(Error::io("cannot remove", &f))?;
     }
     Ok(writer)
 }
@@ -231,7 +236,7 @@ fn tb_tag(column: &str) -> String {
 
 /// Reads `metrics.csv` back: column names and rows (empty cells as NaN). For plots and tests.
 pub fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>)> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text = std::fs::read_to_string(path).map_err(Error::io("cannot read", &path))?;
     let mut lines = text.lines();
     let header: Vec<String> = lines.next().unwrap_or("").split(',').map(str::to_string).collect();
     let rows = lines.map(|l| l.split(',').map(|v| v.parse().unwrap_or(f64::NAN)).collect()).collect();

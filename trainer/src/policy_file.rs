@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Result};
+use crate::error::{bad_file, Error, Result};
 use candle_core::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 
@@ -112,7 +112,7 @@ pub(crate) fn read_actor(l: &Loaded, prefix: &str, dims: &[usize]) -> Result<Mlp
         })
         .collect::<Result<Vec<_>>>()?;
     if l.shape(&format!("{prefix}actor.{}.weight", dims.len() - 1)).is_some() {
-        bail!("more actor layers than the sidecar says");
+        bad_file!("more actor layers than the sidecar says");
     }
     Ok(Mlp { layers, hidden_activation: Activation::Elu })
 }
@@ -138,12 +138,12 @@ impl Policy {
             .chain(meta.hidden.iter().copied())
             .chain(std::iter::once(meta.action_dim))
             .collect();
-        let actor = read_actor(&l, "", &dims).map_err(|e| anyhow::anyhow!("{}: {e}", weights.display()))?;
+        let actor = read_actor(&l, "", &dims).map_err(|e| Error::file(weights.display().to_string(), e))?;
         let mut normalizer = Normalizer::new(meta.obs_dim, None);
         let count = l.f64("normalizer.count", &[1])?[0];
         normalizer
             .set_stats(l.f64("normalizer.mean", &[meta.obs_dim])?, l.f64("normalizer.m2", &[meta.obs_dim])?, count)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", weights.display()))?;
+            .map_err(|e| Error::file(weights.display().to_string(), e))?;
         normalizer.frozen = true;
         Ok(Policy { meta, actor, normalizer, scratch: MlpScratch::default(), norm_buf: Vec::new() })
     }

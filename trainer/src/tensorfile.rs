@@ -6,7 +6,7 @@ use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use crate::error::{bad_file, Error, Result};
 use safetensors::tensor::{Dtype, TensorView};
 use safetensors::SafeTensors;
 use serde::de::DeserializeOwned;
@@ -63,15 +63,16 @@ impl Bundle {
 /// Writes `bytes` to `path` atomically: a crash leaves either the old file or the new one, never a torn one.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let name = path.file_name().context("file name")?.to_string_lossy();
+    std::fs::create_dir_all(dir).map_err(Error::io("creating", &dir))?;
+    let name =
+        path.file_name().ok_or_else(|| Error::Invalid(format!("{} names no file", path.display())))?.to_string_lossy();
     let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
     {
-        let mut f = std::fs::File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
-        f.write_all(bytes).with_context(|| format!("writing {}", tmp.display()))?;
-        f.sync_all()?;
+        let mut f = std::fs::File::create(&tmp).map_err(Error::io("creating", &tmp))?;
+        f.write_all(bytes).map_err(Error::io("writing", &tmp))?;
+        f.sync_all().map_err(Error::io("writing", &tmp))?;
     }
-    std::fs::rename(&tmp, path).with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))?;
+    std::fs::rename(&tmp, path).map_err(Error::io("renaming the new file to", path))?;
     // Make the rename itself durable.
     if let Ok(d) = std::fs::File::open(dir) {
         let _ = d.sync_all();
@@ -87,17 +88,17 @@ pub struct Loaded {
 
 impl Loaded {
     pub fn read(path: &Path) -> Result<Loaded> {
-        let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+        let bytes = std::fs::read(path).map_err(Error::io("cannot read", &path))?;
         Loaded::from_bytes(path, bytes)
     }
 
     /// Safetensors bytes already in memory (e.g. received from another rank); `origin` names them in errors.
     pub fn from_bytes(origin: &Path, bytes: Vec<u8>) -> Result<Loaded> {
         SafeTensors::deserialize(&bytes).map_err(|e| {
-            anyhow::anyhow!(
+            Error::bad_file(format!(
                 "{} is not a valid safetensors file ({e}): the file is corrupt or truncated",
                 origin.display()
-            )
+            ))
         })?;
         Ok(Loaded { path: origin.to_path_buf(), bytes })
     }
@@ -107,15 +108,16 @@ impl Loaded {
     }
 
     fn view(&self, name: &str, dtype: Dtype, shape: &[usize]) -> Result<Vec<u8>> {
-        let st = SafeTensors::deserialize(&self.bytes)?;
+        let st = SafeTensors::deserialize(&self.bytes)
+            .map_err(|e| Error::file(format!("{} is not a valid safetensors file", self.path.display()), e))?;
         let t = st.tensor(name).map_err(|_| {
-            anyhow::anyhow!(
+            Error::bad_file(format!(
                 "{} has no tensor '{name}': it was written by another version or for another network",
                 self.path.display()
-            )
+            ))
         })?;
         if t.dtype() != dtype || t.shape() != shape {
-            bail!(
+            bad_file!(
                 "{}: tensor '{name}' is {:?} {:?}, expected {:?} {:?} (a network of another size?)",
                 self.path.display(),
                 t.dtype(),
@@ -134,7 +136,7 @@ impl Loaded {
             .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
             .collect();
         if v.iter().any(|x| !x.is_finite()) {
-            bail!("{}: tensor '{name}' holds non-finite values", self.path.display());
+            bad_file!("{}: tensor '{name}' holds non-finite values", self.path.display());
         }
         Ok(v)
     }
@@ -189,12 +191,12 @@ pub struct SidecarKind<'a> {
 /// then the weights' checksum.
 pub fn read_sidecar<T: DeserializeOwned>(json: &Path, k: &SidecarKind) -> Result<(T, Loaded)> {
     let text = std::fs::read_to_string(json)
-        .with_context(|| format!("cannot read {} {}{}", k.kind, json.display(), k.hint))?;
+        .map_err(|e| Error::file(format!("cannot read {} {}{}", k.kind, json.display(), k.hint), e))?;
     let invalid = || format!("{} is not a valid {} sidecar", json.display(), k.kind);
-    let value: serde_json::Value = serde_json::from_str(&text).with_context(invalid)?;
-    let h: Header = serde_json::from_value(value.clone()).with_context(invalid)?;
+    let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::file(invalid(), e))?;
+    let h: Header = serde_json::from_value(value.clone()).map_err(|e| Error::file(invalid(), e))?;
     if h.format != k.format || h.version != k.version {
-        bail!(
+        bad_file!(
             "{} is a '{}' v{} file; this build reads '{}' v{}",
             json.display(),
             h.format,
@@ -203,11 +205,11 @@ pub fn read_sidecar<T: DeserializeOwned>(json: &Path, k: &SidecarKind) -> Result
             k.version
         );
     }
-    let side: T = serde_json::from_value(value).with_context(invalid)?;
+    let side: T = serde_json::from_value(value).map_err(|e| Error::file(invalid(), e))?;
     let weights = json.parent().unwrap_or(Path::new(".")).join(&h.weights);
     let loaded = Loaded::read(&weights)?;
     if checksum(loaded.bytes()) != h.weights_crc32 {
-        bail!(
+        bad_file!(
             "{} does not match the checksum in {}: the file is corrupt or was replaced",
             weights.display(),
             json.display()

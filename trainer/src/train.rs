@@ -5,7 +5,7 @@
 use std::rc::Rc;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use crate::error::{invalid, Error, Result};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -122,7 +122,7 @@ impl Trainer {
     /// A fresh run on `env`. With `with_adversary`, the paper's cyclic schedule from `cfg.adversary`; otherwise
     /// `cfg.run.iterations` of plain PPO.
     pub fn new(cfg: TrainConfig, env: Box<dyn VecEnv>, with_adversary: bool) -> Result<Self> {
-        cfg.validate().map_err(anyhow::Error::msg)?;
+        cfg.validate()?;
         let mut rng = ChaCha8Rng::seed_from_u64(cfg.run.seed);
         let (n, od, ad) = (env.num_envs(), env.obs_dim(), env.action_dim());
         let net = &cfg.network;
@@ -132,17 +132,20 @@ impl Trainer {
             ("losses.symmetry_augmentation", cfg.losses.symmetry_augmentation),
             ("adversary.policy_symmetry_augmentation", with_adversary && cfg.adversary.policy_symmetry_augmentation),
         ] {
-            anyhow::ensure!(
-                !on || symmetry.is_some(),
-                "{key} needs a task with a left↔right mirror of its observations and actions, and this one has \
-                 none: set it to false"
-            );
+            if on && symmetry.is_none() {
+                invalid!(
+                    "{key} needs a task with a left↔right mirror of its observations and actions, and this one has \
+                     none: set it to false"
+                );
+            }
         }
         let policy = Agent::new(ac, cfg.ppo.clone(), cfg.losses.clone(), symmetry.clone());
         let (adversary, schedule) = if with_adversary {
             let channels = env.perturbation_channels();
             let pd = perturbation_dim(&channels);
-            anyhow::ensure!(pd > 0, "this task takes no perturbations, so it cannot be trained with an adversary");
+            if pd == 0 {
+                invalid!("this task takes no perturbations, so it cannot be trained with an adversary");
+            }
             let a = &cfg.adversary;
             let ac = ActorCritic::new(od, pd, &a.hidden, &a.hidden, net.init_noise_std, &mut rng)?;
             let mut ppo = cfg.ppo.clone();
@@ -155,13 +158,13 @@ impl Trainer {
             let bounds = adversary::bounds(&channels);
             let mirror = if a.mirror_attacks {
                 let (Some(sym), Some(pm)) = (symmetry, env.perturbation_mirror()) else {
-                    anyhow::bail!(
+                    invalid!(
                         "adversary.mirror_attacks needs a task with a left↔right mirror of its observations and \
                          perturbations, and this one has none: set it to false"
                     );
                 };
                 let m = adversary::AttackMirror::new(sym.obs, pm, od, &bounds);
-                Some(m.map_err(|e| anyhow::anyhow!("adversary.mirror_attacks: {e}"))?)
+                Some(m.map_err(|e| Error::Invalid(format!("adversary.mirror_attacks: {e}")))?)
             } else {
                 None
             };
@@ -188,7 +191,7 @@ impl Trainer {
             host: (crate::segments::this_machine(), rayon::current_num_threads()),
             comm: Rc::new(Single),
         };
-        t.env.reset().context("resetting the environments")?;
+        t.env.reset().map_err(Error::env("resetting the environments"))?;
         Ok(t)
     }
 
@@ -324,7 +327,7 @@ impl Trainer {
             v.resize(n * pd, 0.0);
         }
         if pd > 0 && !adversary_acts {
-            self.env.set_perturbations(&vec![0.0; n * pd])?;
+            self.env.set_perturbations(&vec![0.0; n * pd]).map_err(Error::env("clearing the perturbations"))?;
         }
         self.policy_rollout.clear();
         if let Some(r) = &mut self.adversary_rollout {
@@ -382,10 +385,12 @@ impl Trainer {
                 for (sum, x) in magnitude.iter_mut().zip(m) {
                     *sum += x / steps as f64;
                 }
-                self.env.set_perturbations(&s.perturbation)?;
+                self.env
+                    .set_perturbations(&s.perturbation)
+                    .map_err(Error::env("applying the adversary's perturbations"))?;
             }
             inference += t_act.elapsed();
-            self.env.step(&s.actions)?;
+            self.env.step(&s.actions).map_err(Error::env("stepping the environments"))?;
             reward_sum += self.env.rewards().iter().map(|&r| r as f64).sum::<f64>();
             self.store_rewards(t, phase, gamma)?;
         }

@@ -2,7 +2,7 @@
 //! envs stepped together, episode statistics, a complete snapshot to resume from, the task's mirror maps, and
 //! the channels an adversary may perturb with their bounds and log names.
 
-use anyhow::Result;
+pub use crate::error::EnvFailure;
 
 use crate::symmetry::{SignedPermutation, Symmetry};
 
@@ -74,10 +74,10 @@ pub trait VecEnv: Send {
     fn obs_dim(&self) -> usize;
     fn action_dim(&self) -> usize;
     /// Resets every env.
-    fn reset(&mut self) -> Result<()>;
+    fn reset(&mut self) -> Result<(), EnvFailure>;
     /// One policy step for all envs (`actions`: num_envs × action_dim, row-major). Finished envs are reset: their
     /// row of `obs` is the new episode's first observation, and `terminal_obs` holds the last one.
-    fn step(&mut self, actions: &[f32]) -> Result<()>;
+    fn step(&mut self, actions: &[f32]) -> Result<(), EnvFailure>;
     fn obs(&self) -> &[f32];
     fn rewards(&self) -> &[f32];
     /// 1.0 where the episode ended this step.
@@ -92,7 +92,7 @@ pub trait VecEnv: Send {
     /// What an adversary may perturb, in the order of the perturbation vector (empty: nothing).
     fn perturbation_channels(&self) -> Vec<PerturbationChannel>;
     /// Sets every env's perturbation (num_envs × the channels' total size).
-    fn set_perturbations(&mut self, p: &[f32]) -> Result<()>;
+    fn set_perturbations(&mut self, p: &[f32]) -> Result<(), EnvFailure>;
     /// The left↔right mirror of a perturbation vector, matching `symmetry`'s mirror of the observation: the
     /// perturbation of the mirror-image world (None: the task has none).
     fn perturbation_mirror(&self) -> Option<SignedPermutation> {
@@ -100,7 +100,7 @@ pub trait VecEnv: Send {
     }
     /// The complete state of all envs (to resume bit for bit).
     fn save_state(&self) -> EnvSnapshot;
-    fn load_state(&mut self, s: &EnvSnapshot) -> Result<()>;
+    fn load_state(&mut self, s: &EnvSnapshot) -> Result<(), EnvFailure>;
     /// Where `step`'s time went since the last call.
     fn take_step_timing(&mut self) -> StepTiming {
         StepTiming::default()

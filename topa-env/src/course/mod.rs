@@ -11,6 +11,8 @@ use std::path::Path as FsPath;
 
 use serde::Deserialize;
 
+use crate::error::{EnvError, Result};
+
 use path::{dist, point_segment_distance, segment_distance, segments_cross};
 pub use path::{Path, PathPoint};
 
@@ -151,35 +153,38 @@ pub const PATH_CLEARANCE: f64 = 0.15;
 
 impl Course {
     /// Reads and validates a course file; every error names the file and the item.
-    pub fn load(file: &FsPath) -> Result<Course, String> {
-        let at = |m: String| format!("course {}: {m}", file.display());
-        let text = std::fs::read_to_string(file).map_err(|e| at(format!("{e} (courses live in assets/courses/)")))?;
-        Course::parse(&text).map_err(at)
+    pub fn load(file: &FsPath) -> Result<Course> {
+        let at = |m: &dyn std::fmt::Display| EnvError::Course(format!("course {}: {m}", file.display()));
+        let text = std::fs::read_to_string(file).map_err(|e| at(&format!("{e} (courses live in assets/courses/)")))?;
+        Course::parse(&text).map_err(|e| at(&e))
     }
 
     /// Parses and validates a course from TOML text.
-    pub fn parse(text: &str) -> Result<Course, String> {
-        let raw: Raw = toml::from_str(text).map_err(|e| e.to_string().replace('\n', " "))?;
-        let path = Path::new(raw.path.clone()).map_err(|e| format!("path: {e}"))?;
+    pub fn parse(text: &str) -> Result<Course> {
+        let raw: Raw = toml::from_str(text).map_err(|e| EnvError::Course(e.to_string().replace('\n', " ")))?;
+        let path = Path::new(raw.path.clone()).map_err(|e| EnvError::Course(format!("path: {e}")))?;
         let len = path.length();
         let within = |what: &str, s: f64| {
             if (0.0..=len).contains(&s) {
                 Ok(())
             } else {
-                Err(format!("{what}: at {s} m, but the path is {len:.1} m long"))
+                Err(EnvError::Course(format!("{what}: at {s} m, but the path is {len:.1} m long")))
             }
         };
         for (name, m) in &raw.materials {
             if !(m.friction > 0.0 && m.friction <= 2.0) {
-                return Err(format!("materials.{name}: friction {} is outside (0, 2]", m.friction));
+                return Err(EnvError::Course(format!("materials.{name}: friction {} is outside (0, 2]", m.friction)));
             }
         }
         for (i, f) in raw.floor.iter().enumerate() {
             if !raw.materials.contains_key(&f.material) {
-                return Err(format!("floor {i}: no material '{}' in [materials]", f.material));
+                return Err(EnvError::Course(format!("floor {i}: no material '{}' in [materials]", f.material)));
             }
             if !(f.min[0] < f.max[0] && f.min[1] < f.max[1]) {
-                return Err(format!("floor {i}: min {:?} must be below max {:?} in x and y", f.min, f.max));
+                return Err(EnvError::Course(format!(
+                    "floor {i}: min {:?} must be below max {:?} in x and y",
+                    f.min, f.max
+                )));
             }
         }
         let mut walls = raw.wall.clone();
@@ -187,29 +192,32 @@ impl Course {
             within(&format!("corridor {i} from_m"), c.from_m)?;
             within(&format!("corridor {i} to_m"), c.to_m)?;
             if c.to_m <= c.from_m || c.half_width < PATH_CLEARANCE + 0.05 {
-                return Err(format!(
+                return Err(EnvError::Course(format!(
                     "corridor {i}: needs from_m < to_m and half_width ≥ {} m (got {}–{} m, {} m)",
                     PATH_CLEARANCE + 0.05,
                     c.from_m,
                     c.to_m,
                     c.half_width
-                ));
+                )));
             }
             walls.extend(corridor_walls(&path.slice(c.from_m, c.to_m), c.half_width));
         }
         for (i, t) in raw.threshold.iter().enumerate() {
             within(&format!("threshold {i}"), t.at_m)?;
             if !(t.height > 0.0 && t.height <= 0.05) {
-                return Err(format!("threshold {i}: height {} m is not a threshold (0 < h ≤ 0.05 m)", t.height));
+                return Err(EnvError::Course(format!(
+                    "threshold {i}: height {} m is not a threshold (0 < h ≤ 0.05 m)",
+                    t.height
+                )));
             }
         }
         for (i, d) in raw.door.iter().enumerate() {
             within(&format!("door {i}"), d.at_m)?;
             if d.clear_width < 2.0 * PATH_CLEARANCE || d.post <= 0.0 || !(0.0..=0.05).contains(&d.threshold) {
-                return Err(format!(
+                return Err(EnvError::Course(format!(
                     "door {i}: needs clear_width ≥ {} m, post > 0 and threshold in [0, 0.05] m",
                     2.0 * PATH_CLEARANCE
-                ));
+                )));
             }
             let p = path.at(d.at_m);
             let (t, n) = ([p.heading.cos(), p.heading.sin()], [-p.heading.sin(), p.heading.cos()]);
@@ -241,33 +249,33 @@ impl Course {
     }
 
     /// The path on the floor, walls off the path and off each other.
-    fn check_geometry(&self) -> Result<(), String> {
+    fn check_geometry(&self) -> Result<()> {
         let len = self.path.length();
         let n = (len / 0.05).ceil() as usize;
         for k in 0..=n {
             let p = self.path.at(len * k as f64 / n as f64);
             if self.material_at(p.xy).is_none() {
-                return Err(format!(
+                return Err(EnvError::Course(format!(
                     "the path leaves its floor at {:.2} m ({:.2}, {:.2}): no [[floor]] patch covers it",
                     p.s, p.xy[0], p.xy[1]
-                ));
+                )));
             }
         }
         for (i, w) in self.walls.iter().enumerate() {
             if !(w.thickness > 0.0 && w.height > 0.0) || dist(w.from, w.to) < 1e-6 {
-                return Err(format!(
+                return Err(EnvError::Course(format!(
                     "{}: needs two different end points, thickness > 0 and height > 0",
                     self.wall_name(i)
-                ));
+                )));
             }
             for seg in self.path.points().windows(2) {
                 let d = segment_distance(w.from, w.to, seg[0], seg[1]);
                 if d < w.thickness / 2.0 + PATH_CLEARANCE {
-                    return Err(format!(
+                    return Err(EnvError::Course(format!(
                         "{} is {d:.2} m from the path: a robot following it needs {:.2} m",
                         self.wall_name(i),
                         w.thickness / 2.0 + PATH_CLEARANCE
-                    ));
+                    )));
                 }
             }
         }
@@ -279,7 +287,7 @@ impl Course {
                     || (!shared && segment_distance(a.from, a.to, b.from, b.to) < (a.thickness + b.thickness) / 2.0)
                     || (shared && collinear_overlap(a, b));
                 if overlap {
-                    return Err(format!("{} and {} overlap", self.wall_name(i), self.wall_name(j)));
+                    return Err(EnvError::Course(format!("{} and {} overlap", self.wall_name(i), self.wall_name(j))));
                 }
             }
         }

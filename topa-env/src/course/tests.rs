@@ -2,7 +2,7 @@ use super::*;
 
 const INDOOR: &str = include_str!("../../../assets/courses/indoor.toml");
 
-fn with(extra: &str) -> Result<Course, String> {
+fn with(extra: &str) -> crate::Result<Course> {
     Course::parse(&format!("{INDOOR}\n{extra}"))
 }
 
@@ -23,32 +23,34 @@ fn the_indoor_course_is_about_100_m_with_its_elements() {
 #[test]
 fn a_path_that_leaves_its_floor_is_named_with_where() {
     let text = INDOOR.replace("[30.0, 40.0],", "[30.0, 45.0],");
-    let err = Course::parse(&text).unwrap_err();
+    let err = Course::parse(&text).unwrap_err().to_string();
     assert!(err.contains("leaves its floor") && err.contains("(30.00, 41.5"), "{err}");
 }
 
 #[test]
 fn overlapping_walls_and_walls_on_the_path_are_named() {
-    let err =
-        with("[[wall]]\nfrom = [5.0, 1.0]\nto = [5.0, 3.0]\n[[wall]]\nfrom = [4.0, 2.0]\nto = [6.0, 2.0]").unwrap_err();
+    let err = with("[[wall]]\nfrom = [5.0, 1.0]\nto = [5.0, 3.0]\n[[wall]]\nfrom = [4.0, 2.0]\nto = [6.0, 2.0]")
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("wall 0") && err.contains("wall 1") && err.contains("overlap"), "{err}");
-    let err = with("[[wall]]\nfrom = [5.0, -1.0]\nto = [5.0, 1.0]").unwrap_err();
+    let err = with("[[wall]]\nfrom = [5.0, -1.0]\nto = [5.0, 1.0]").unwrap_err().to_string();
     assert!(err.contains("wall 0") && err.contains("from the path"), "{err}");
     // A door frame inside a corridor collides with its walls.
-    let err = with("[[door]]\nat_m = 45.0\nclear_width = 0.8").unwrap_err();
+    let err = with("[[door]]\nat_m = 45.0\nclear_width = 0.8").unwrap_err().to_string();
     assert!(err.contains("overlap"), "{err}");
 }
 
 #[test]
 fn wrong_keys_and_values_are_named() {
-    assert!(with("[[threshold]]\nat_m = 5.0\nheight = 0.2").unwrap_err().contains("not a threshold"));
-    assert!(with("[[threshold]]\nat_m = 500.0\nheight = 0.01").unwrap_err().contains("100.0 m long"));
+    assert!(with("[[threshold]]\nat_m = 5.0\nheight = 0.2").unwrap_err().to_string().contains("not a threshold"));
+    assert!(with("[[threshold]]\nat_m = 500.0\nheight = 0.01").unwrap_err().to_string().contains("100.0 m long"));
     assert!(with("[[floor]]\nmaterial = \"ice\"\nmin = [0, 0]\nmax = [1, 1]")
         .unwrap_err()
+        .to_string()
         .contains("no material 'ice'"));
-    let err = with("[[threshold]]\nat_m = 5.0\nheigth = 0.01").unwrap_err();
+    let err = with("[[threshold]]\nat_m = 5.0\nheigth = 0.01").unwrap_err().to_string();
     assert!(err.contains("heigth"), "{err}");
-    let err = Course::load(std::path::Path::new("no/such/course.toml")).unwrap_err();
+    let err = Course::load(std::path::Path::new("no/such/course.toml")).unwrap_err().to_string();
     assert!(err.contains("no/such/course.toml") && err.contains("assets/courses"), "{err}");
 }
 

@@ -8,7 +8,7 @@ use mujoco::{Data, Model};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{EnvError, Result};
+use crate::error::Result;
 use crate::indices::RobotIndices;
 
 /// Per motor, in the robot spec's motor order; an empty list keeps the MJCF's values.
@@ -37,19 +37,21 @@ impl ActuatorConfig {
         ]
     }
 
-    pub fn validate(&self, n_motors: usize) -> std::result::Result<(), String> {
+    pub fn validate(&self, n_motors: usize) -> crate::Result<()> {
         if !self.enabled {
             return Ok(());
         }
         for (name, v) in self.lists() {
             if !v.is_empty() && v.len() != n_motors {
-                return Err(format!(
+                return Err(crate::EnvError::Config(format!(
                     "sim2sim.actuators.{name} has {} values; the robot has {n_motors} motors (one each, or none)",
                     v.len()
-                ));
+                )));
             }
             if v.iter().any(|x| !(x.is_finite() && *x >= 0.0)) || (name == "torque_constant" && v.contains(&0.0)) {
-                return Err(format!("sim2sim.actuators.{name}: values must be finite and positive (≥ 0 for friction)"));
+                return Err(crate::EnvError::Config(format!(
+                    "sim2sim.actuators.{name}: values must be finite and positive (≥ 0 for friction)"
+                )));
             }
         }
         Ok(())
@@ -82,7 +84,7 @@ impl ActuatorConfig {
         if !self.enabled {
             return Ok(());
         }
-        self.validate(idx.n_motors).map_err(EnvError::Config)?;
+        self.validate(idx.n_motors)?;
         let motors: Vec<(usize, usize)> = idx.actuated_dof.iter().copied().zip(idx.actuators.iter().copied()).collect();
         self.put(Arc::make_mut(model), &motors);
         // MuJoCo 2.2 takes the armature into the mass matrix through mj_setConst.
@@ -123,7 +125,7 @@ mod tests {
         // The shared model the caller still holds is untouched.
         assert_ne!(before.dof_armature()[idx.actuated_dof[0]], 0.05);
         let short = ActuatorConfig { enabled: true, damping: vec![0.1; 3], ..Default::default() };
-        assert!(short.validate(n).unwrap_err().contains("damping has 3 values; the robot has 10 motors"));
+        assert!(short.validate(n).unwrap_err().to_string().contains("damping has 3 values; the robot has 10 motors"));
         let negative = ActuatorConfig { enabled: true, frictionloss: vec![-0.1; n], ..Default::default() };
         assert!(negative.validate(n).is_err());
         let off = ActuatorConfig { enabled: false, damping: vec![0.1; 3], ..Default::default() };

@@ -101,13 +101,13 @@ pub struct TorqueSpeedConfig {
 
 impl TorqueSpeedConfig {
     /// The table must cover one leg of a robot with `n_motors` motors (two legs of n/2).
-    pub fn check_motors(&self, n_motors: usize) -> std::result::Result<(), String> {
+    pub fn check_motors(&self, n_motors: usize) -> crate::Result<()> {
         if self.enabled && self.full_torque_speed.len() * 2 != n_motors {
-            return Err(format!(
+            return Err(crate::EnvError::Config(format!(
                 "sim2sim.torque_speed lists {} speeds per leg, the robot has {} motors per leg",
                 self.full_torque_speed.len(),
                 n_motors / 2
-            ));
+            )));
         }
         Ok(())
     }
@@ -145,24 +145,28 @@ impl Sim2SimConfig {
         self.estimator.enabled || self.gyro.enabled || self.accel.enabled || self.orientation.enabled
     }
 
-    pub fn validate(&self) -> std::result::Result<(), String> {
+    pub fn validate(&self) -> crate::Result<()> {
         for (name, n) in [("gyro", self.gyro), ("accel", self.accel), ("orientation", self.orientation)] {
             if [n.white, n.bias_initial, n.bias_walk].iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-                return Err(format!("sim2sim.{name}: noise values must be finite and ≥ 0"));
+                return Err(crate::EnvError::Config(format!("sim2sim.{name}: noise values must be finite and ≥ 0")));
             }
         }
         let e = &self.encoders;
         if !(e.counts_per_rev >= 0.0 && e.velocity_noise >= 0.0) {
-            return Err("sim2sim.encoders: counts_per_rev and velocity_noise must be ≥ 0".into());
+            return Err(crate::EnvError::Config(
+                "sim2sim.encoders: counts_per_rev and velocity_noise must be ≥ 0".into(),
+            ));
         }
         let t = &self.torque_speed;
         if t.enabled && t.full_torque_speed.len() != t.no_load_speed.len() {
-            return Err(
-                "sim2sim.torque_speed: full_torque_speed and no_load_speed need one value per leg joint each".into()
-            );
+            return Err(crate::EnvError::Config(
+                "sim2sim.torque_speed: full_torque_speed and no_load_speed need one value per leg joint each".into(),
+            ));
         }
         if t.enabled && t.full_torque_speed.iter().zip(&t.no_load_speed).any(|(&w1, &w0)| !(w1 >= 0.0 && w0 > w1)) {
-            return Err("sim2sim.torque_speed: need 0 ≤ full_torque_speed < no_load_speed for every joint".into());
+            return Err(crate::EnvError::Config(
+                "sim2sim.torque_speed: need 0 ≤ full_torque_speed < no_load_speed for every joint".into(),
+            ));
         }
         let f = &self.estimator.filter;
         let vals = [
@@ -175,10 +179,12 @@ impl Sim2SimConfig {
             f.swing_scale,
         ];
         if self.estimator.enabled && vals.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-            return Err("sim2sim.estimator: every covariance and swing_scale must be positive".into());
+            return Err(crate::EnvError::Config(
+                "sim2sim.estimator: every covariance and swing_scale must be positive".into(),
+            ));
         }
         if !(self.timestep >= 0.0 && self.timestep.is_finite()) {
-            return Err("sim2sim.timestep must be ≥ 0 (0 = the evaluation's own)".into());
+            return Err(crate::EnvError::Config("sim2sim.timestep must be ≥ 0 (0 = the evaluation's own)".into()));
         }
         Ok(())
     }
@@ -255,7 +261,7 @@ impl Sim2Sim {
         rng.set_stream(index + STREAM_OFFSET);
         let delay = cfg.latency;
         let n = idx.n_motors;
-        cfg.torque_speed.check_motors(n).map_err(crate::error::EnvError::Config)?;
+        cfg.torque_speed.check_motors(n)?;
         let joint_map = JointMap::new(&idx.spec, &model)?;
         let empty = Sensed { motor_pos: vec![0.0; n], motor_vel: vec![0.0; n], ..Sensed::default() };
         Ok(Sim2Sim {

@@ -5,7 +5,7 @@ mod encode;
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Result;
+use crate::error::Result;
 use mujoco::render::{Quality, Renderer};
 use topa_env::RobotEnv;
 
@@ -83,9 +83,9 @@ pub struct FrameSize {
 }
 
 impl std::str::FromStr for FrameSize {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        let bad = || format!("a frame size is WIDTHxHEIGHT, e.g. 640x480, not '{s}'");
+    type Err = crate::Error;
+    fn from_str(s: &str) -> std::result::Result<Self, crate::Error> {
+        let bad = || crate::Error::Invalid(format!("a frame size is WIDTHxHEIGHT, e.g. 640x480, not '{s}'"));
         let (w, h) = s.split_once('x').ok_or_else(bad)?;
         let (width, height) = (w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?);
         if width == 0 || height == 0 {
@@ -101,9 +101,9 @@ mod tests {
 
     #[test]
     fn frame_sizes_parse_and_bad_ones_name_the_form() {
-        assert_eq!("640x480".parse::<FrameSize>(), Ok(FrameSize { width: 640, height: 480 }));
+        assert_eq!("640x480".parse::<FrameSize>().unwrap(), FrameSize { width: 640, height: 480 });
         for bad in ["640", "640x", "x480", "0x480", "640×480"] {
-            let e = bad.parse::<FrameSize>().unwrap_err();
+            let e = bad.parse::<FrameSize>().unwrap_err().to_string();
             assert!(e.contains("WIDTHxHEIGHT") && e.contains(bad), "{e}");
         }
     }
