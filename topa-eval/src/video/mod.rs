@@ -12,6 +12,10 @@ use topa_env::RobotEnv;
 pub use encode::VideoWriter;
 pub use mujoco::gl::{GlContext, INSTALL_HINT};
 
+/// Camera distances are given for a robot whose torso stands this high (TopA's stand pose); another robot's are
+/// scaled by its own stand height (its spec's `base_height_target`), so that a taller one stays in the frame.
+const FRAMED_STAND_HEIGHT_M: f64 = 0.5607;
+
 /// Frames of a run at a fixed rate.
 pub struct VideoRecorder {
     // Field order is drop order: the renderer frees OpenGL objects while the context still exists.
@@ -19,6 +23,8 @@ pub struct VideoRecorder {
     _gl: GlContext,
     writer: VideoWriter,
     fps: u32,
+    /// The robot's size relative to the one the camera distances are given for.
+    scale: f64,
 }
 
 impl VideoRecorder {
@@ -31,9 +37,10 @@ impl VideoRecorder {
     ) -> Result<VideoRecorder> {
         let gl = GlContext::headless(width, height)?;
         let mut renderer = Renderer::new(env.data().model_arc().clone(), width, height, quality)?;
-        renderer.track(env.indices().torso_body, 1.6, 150.0, -12.0);
+        let scale = env.indices().spec.base_height_target / FRAMED_STAND_HEIGHT_M;
+        renderer.track(env.indices().torso_body, 1.6 * scale, 150.0, -12.0);
         let writer = VideoWriter::create(path, width, height, fps)?;
-        Ok(VideoRecorder { renderer, _gl: gl, writer, fps })
+        Ok(VideoRecorder { renderer, _gl: gl, writer, fps, scale })
     }
 
     /// Adds the frames due up to time `t` (s since the start): frame k shows the state at the first step at or
@@ -48,9 +55,10 @@ impl VideoRecorder {
         Ok(())
     }
 
-    /// Points the camera: it follows `body` at `distance` m from `azimuth`° (0 looks along +x) and `elevation`°.
+    /// Points the camera: it follows `body` at `distance` m (for a robot of TopA's size; scaled by this one's stand
+    /// height) from `azimuth`° (0 looks along +x) and `elevation`°.
     pub fn follow(&mut self, body: usize, distance: f64, azimuth: f64, elevation: f64) {
-        self.renderer.track(body, distance, azimuth, elevation);
+        self.renderer.track(body, distance * self.scale, azimuth, elevation);
     }
 
     pub fn frames(&self) -> usize {
