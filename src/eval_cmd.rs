@@ -131,7 +131,7 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
         }
         EvalCmd::Progress { runs, every, seconds, starts, push_step } => {
             let p = progress::Protocol { every, seconds, starts, push_step };
-            let results = runs.iter().map(|r| progress::run(r, p, &s, &c.out)).collect::<Result<Vec<_>>>()?;
+            let results = runs.iter().map(|r| progress::run(r, p, &s, &c.out)).collect::<Result<Vec<_>, _>>()?;
             report::write_json(&c.out, "progress.json", &results)?;
             let protocol = p.describe(&s);
             let md = progress::markdown(&results, &protocol);

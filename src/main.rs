@@ -21,9 +21,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Cmd::Info { model, json } => {
             if model.extension().is_some_and(|e| e == "toml") {
-                topa_tools::robot_info::run(&model, json)
+                Ok(topa_tools::robot_info::run(&model, json)?)
             } else {
-                info::run(&model, json)
+                Ok(info::run(&model, json)?)
             }
         }
         Cmd::Train(args) => train_cmd::run(args),
@@ -65,7 +65,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             groups_cmd::run_field(groups, extent, common)
         }
-        Cmd::Docs { pages, check } => topa_eval::doc_blocks::run(&pages, check),
+        Cmd::Docs { pages, check } => Ok(topa_eval::doc_blocks::run(&pages, check)?),
         Cmd::Plot { runs, group, out } => {
             if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir)?;
@@ -131,7 +131,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Cmd::Bench(BenchCmd::Physics { model, steps, rounds, batch, no_testspeed }) => {
-            bench::physics::run(&model, steps, rounds, batch, !no_testspeed)
+            Ok(bench::physics::run(&model, steps, rounds, batch, !no_testspeed)?)
         }
         Cmd::Bench(BenchCmd::Ppo { threads, repeats, torch_python, worker }) => {
             if worker {
@@ -139,17 +139,24 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string(&r)?);
                 Ok(())
             } else {
-                bench::ppo::run(&threads, repeats, torch_python.as_deref())
+                Ok(bench::ppo::run(&threads, repeats, torch_python.as_deref())?)
             }
         }
         Cmd::Bench(BenchCmd::Render { width, height, frames, quality }) => {
-            bench::render::run(width, height, frames, quality.into())
+            Ok(bench::render::run(width, height, frames, quality.into())?)
         }
         Cmd::Bench(BenchCmd::Mpi { config, ranks, iterations, warmup, rounds, mpirun }) => {
-            bench::mpi::run(&bench::mpi::Args { config: &config, ranks, iterations, warmup, rounds, mpirun: &mpirun })
+            Ok(bench::mpi::run(&bench::mpi::Args {
+                config: &config,
+                ranks,
+                iterations,
+                warmup,
+                rounds,
+                mpirun: &mpirun,
+            })?)
         }
         Cmd::Bench(BenchCmd::Memory { envs, steps, policy, terrain }) => {
-            bench::memory::run(envs, steps, &policy, terrain)
+            Ok(bench::memory::run(envs, steps, &policy, terrain)?)
         }
         Cmd::Bench(BenchCmd::Train { config, threads, envs, iterations, warmup, integrator, rounds, worker }) => {
             let a =
@@ -158,12 +165,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string(&bench::train::worker(&a, threads[0])?)?);
                 Ok(())
             } else {
-                bench::train::run(&a)
+                Ok(bench::train::run(&a)?)
             }
         }
         Cmd::Bench(BenchCmd::Env { model, envs, threads, integrator, seconds, rounds, terrain, policy }) => {
             let (kind, policy) = (model, policy.as_deref());
-            bench::env::run(&bench::env::EnvBench {
+            Ok(bench::env::run(&bench::env::EnvBench {
                 kind,
                 envs: &envs,
                 threads: &threads,
@@ -172,7 +179,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 rounds,
                 terrain,
                 policy,
-            })
+            })?)
         }
     }
 }

@@ -59,18 +59,42 @@ fn the_command_line_is_a_binary_with_no_public_items() {
 #[test]
 fn libraries_have_typed_errors() {
     for c in LIBRARIES {
-        let manifest: toml::Table = toml::from_str(&std::fs::read_to_string(root().join(c).join("Cargo.toml")).unwrap()).unwrap();
+        let manifest: toml::Table =
+            toml::from_str(&std::fs::read_to_string(root().join(c).join("Cargo.toml")).unwrap()).unwrap();
         let deps = manifest.get("dependencies").and_then(|d| d.as_table()).cloned().unwrap_or_default();
         assert!(!deps.contains_key("anyhow"), "{c} depends on anyhow: give it an error type of its own");
         let code = all_code(&root().join(c).join("src"));
         for line in code.lines() {
-            let squeezed: String = line.chars().filter(|ch| !ch.is_whitespace()).collect();
-            assert!(
-                !squeezed.contains(",String>") || !squeezed.contains("Result<"),
-                "{c}: an error as a bare String: {line}"
-            );
+            assert!(!string_error(line), "{c}: an error as a bare String: {line}");
         }
     }
+}
+
+/// Whether `line` names a `Result<…, String>`: the last type argument of a `Result<` is `String`.
+fn string_error(line: &str) -> bool {
+    let s: String = line.chars().filter(|ch| !ch.is_whitespace()).collect();
+    s.match_indices("Result<").any(|(at, m)| {
+        // Only a second argument is an error type: `Result<String>` is an alias's Ok value.
+        let (mut depth, mut last_arg) = (0, None);
+        for (i, ch) in s[at + m.len()..].char_indices() {
+            match ch {
+                '<' | '(' | '[' => depth += 1,
+                ',' if depth == 0 => last_arg = Some(at + m.len() + i + 1),
+                '>' | ')' | ']' if depth == 0 => return last_arg.is_some_and(|a| s[a..at + m.len() + i] == *"String"),
+                '>' | ')' | ']' => depth -= 1,
+                _ => {}
+            }
+        }
+        false
+    })
+}
+
+#[test]
+fn a_string_error_is_told_from_a_string_value() {
+    assert!(string_error("fn f() -> Result<(), String> {"));
+    assert!(string_error("fn f() -> std::result::Result<Vec<(u8, String)>, String>;"));
+    assert!(!string_error("fn f() -> Result<String> {"));
+    assert!(!string_error("fn f(m: Option<HashMap<String, String>>) -> Result<Vec<u8>> {"));
 }
 
 /// `unsafe` code and the raw FFI stay in the FFI crates (mujoco-sys, and mujoco, the safe layer over it) and the

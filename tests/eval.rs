@@ -311,7 +311,7 @@ fn a_policy_file_that_cannot_drive_topa_is_refused() {
     meta["robot"] = serde_json::json!("assets/robots/topa_closed.toml");
     meta["activation"] = serde_json::json!("relu");
     std::fs::write(&p, serde_json::to_string(&meta).unwrap()).unwrap();
-    let err = format!("{:#}", PolicyRunner::load(&p, "x").err().unwrap());
+    let err = format!("{:#}", anyhow::Error::from(PolicyRunner::load(&p, "x").err().unwrap()));
     assert!(err.contains("relu") && err.contains("elu"), "{err}");
     std::fs::remove_dir_all(dir).ok();
 }

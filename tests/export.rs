@@ -119,7 +119,7 @@ fn corrupt_or_mismatched_files_are_one_clear_error() {
     let bytes = std::fs::read(&file).unwrap();
     let cut = dir.join("cut.onnx");
     std::fs::write(&cut, &bytes[..bytes.len() / 3]).unwrap();
-    let err = format!("{:#}", topa_tools::export::read(&cut).unwrap_err());
+    let err = format!("{:#}", anyhow::Error::from(topa_tools::export::read(&cut).unwrap_err()));
     assert!(err.contains("is not an ONNX model") && err.contains("topa export"), "{err}");
     // Not ONNX at all.
     let junk = dir.join("junk.onnx");

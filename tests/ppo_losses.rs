@@ -271,9 +271,15 @@ fn unknown_or_invalid_config_keys_are_clear_errors() {
     assert_eq!(err.lines().count(), 1, "{err}");
     let err = TrainConfig::load(&write("bad.toml", "[ppo]\ngamma = 1.5\n")).unwrap_err().to_string();
     assert!(err.contains("ppo.gamma"), "{err}");
-    let err = format!("{:#}", load_config(&write("env.toml", "[env.rewards]\nsigma_v = -1.0\n")).unwrap_err());
+    let err = format!(
+        "{:#}",
+        anyhow::Error::from(load_config(&write("env.toml", "[env.rewards]\nsigma_v = -1.0\n")).unwrap_err())
+    );
     assert!(err.contains("sigma_v") && err.contains("env.toml"), "{err}");
-    let err = format!("{:#}", load_config(&write("env2.toml", "[env.rewards]\nsigma_vv = 1.0\n")).unwrap_err());
+    let err = format!(
+        "{:#}",
+        anyhow::Error::from(load_config(&write("env2.toml", "[env.rewards]\nsigma_vv = 1.0\n")).unwrap_err())
+    );
     assert!(err.contains("sigma_vv") && err.contains("env2.toml"), "{err}");
     let err = TrainConfig::load(&write("ent.toml", "[ppo]\nentropy_coef_end = -0.01\n")).unwrap_err().to_string();
     assert!(err.contains("ppo.entropy_coef_end must be ≥ 0"), "{err}");

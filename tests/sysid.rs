@@ -169,10 +169,10 @@ fn logs_that_do_not_fit_the_bench_are_refused_naming_the_fix() {
     let e = format!("{:#}", Bench::load(&bench, &odd).err().unwrap());
     assert!(e.contains("not a whole number of the bench's timestep"), "{e}");
     // A missing bench and a malformed one.
-    let e = format!("{:#}", Bench::load(&dir.join("none.xml"), &exc).err().unwrap());
+    let e = format!("{:#}", anyhow::Error::from(Bench::load(&dir.join("none.xml"), &exc).err().unwrap()));
     assert!(e.contains("none.xml"), "{e}");
     std::fs::write(dir.join("broken.xml"), "<mujoco><worldbody><body></mujoco>").unwrap();
-    let e = format!("{:#}", Bench::load(&dir.join("broken.xml"), &exc).err().unwrap());
+    let e = format!("{:#}", anyhow::Error::from(Bench::load(&dir.join("broken.xml"), &exc).err().unwrap()));
     assert!(e.contains("broken.xml"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

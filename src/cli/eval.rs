@@ -36,14 +36,14 @@ pub(crate) struct Common {
 
 impl Common {
     pub(crate) fn settings(&self) -> Result<EvalSettings> {
-        EvalSettings {
+        Ok(EvalSettings {
             timestep: self.timestep,
             integrator: self.integrator,
             seed: self.seed,
             threads: self.threads,
             ..Default::default()
         }
-        .with_sim2sim(&self.sim2sim)
+        .with_sim2sim(&self.sim2sim)?)
     }
 }
 

@@ -3,7 +3,9 @@
 
 use std::sync::{Arc, Mutex};
 
-use anyhow::Result;
+use trainer::vec_env::EnvFailure;
+
+type Result<T> = std::result::Result<T, EnvFailure>;
 use trainer::vec_env::{EnvSnapshot, EpisodeStats, PerturbationChannel, VecEnv};
 use trainer::{SignedPermutation, Symmetry};
 

@@ -36,13 +36,15 @@ impl IntegratorChoice {
 }
 
 impl std::str::FromStr for IntegratorChoice {
-    type Err = crate::EnvError;
-    fn from_str(s: &str) -> std::result::Result<Self, crate::EnvError> {
+    type Err = crate::error::EnvError;
+    fn from_str(s: &str) -> std::result::Result<Self, crate::error::EnvError> {
         [IntegratorChoice::Model, IntegratorChoice::Euler, IntegratorChoice::Rk4, IntegratorChoice::Implicit]
             .into_iter()
             .find(|i| i.name() == s)
             .ok_or_else(|| {
-                crate::EnvError::Choice(format!("integrator '{s}' is unknown: use model, euler, rk4 or implicit"))
+                crate::error::EnvError::Choice(format!(
+                    "integrator '{s}' is unknown: use model, euler, rk4 or implicit"
+                ))
             })
     }
 }

@@ -23,6 +23,7 @@ pub mod error;
 pub mod indices;
 pub mod integrator;
 pub mod linkage;
+pub mod mechanism;
 pub mod observation;
 pub mod perturb;
 pub mod policy_runner;

@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::EnvError;
+use crate::error::EnvError;
 
 /// Which MJCF variant: the real closed chain or the serial approximation most RL frameworks use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -29,7 +29,7 @@ impl ModelKind {
         }
     }
     /// The model a policy file names by its robot's name (`topa_closed`, `topa_open`).
-    pub fn of_policy(robot: Option<&str>) -> crate::Result<ModelKind> {
+    pub fn of_policy(robot: Option<&str>) -> crate::error::Result<ModelKind> {
         match robot {
             Some(r) => {
                 [ModelKind::Closed, ModelKind::Open].into_iter().find(|k| k.robot_name() == r).ok_or_else(|| {

@@ -101,7 +101,7 @@ fn load(path: &Path, line: usize) -> Result<Ablation> {
 pub fn run(pages: &[PathBuf], check: bool) -> Result<()> {
     let mut stale = Vec::new();
     for page in pages {
-        let text = std::fs::read_to_string(page).map_err(Error::io("cannot read", &page))?;
+        let text = std::fs::read_to_string(page).map_err(Error::io("cannot read", page))?;
         let dir = page.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
         let in_page = |e: Error| Error::file(page.display().to_string(), e);
         let found = blocks(&text).map_err(in_page)?;

@@ -25,7 +25,7 @@ pub struct Driver {
 impl Driver {
     /// A driver at `top_speed` within `ranges` (the policy's training command ranges); an error if the speed is
     /// not a forward command the policy was trained on.
-    pub fn new(top_speed: f64, ranges: &CommandConfig) -> crate::Result<Driver> {
+    pub fn new(top_speed: f64, ranges: &CommandConfig) -> crate::error::Result<Driver> {
         let [_, vmax] = ranges.lin_vel_x;
         if !(top_speed > 0.0 && top_speed <= vmax + 1e-9) {
             crate::error::invalid!(

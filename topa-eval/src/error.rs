@@ -20,9 +20,9 @@ pub enum Error {
     /// A batch of envs failed while stepping (its message names the cause and the fix).
     #[error("{0}")]
     Simulation(trainer::vec_env::EnvFailure),
-    /// A training run's config or files (the checkpoints a progress study reads).
+    /// A training run's config or files (the checkpoints a progress study reads); boxed, as it is large.
     #[error(transparent)]
-    Train(#[from] topa_train::Error),
+    Train(Box<topa_train::Error>),
     /// Reading, creating, writing or moving a file failed.
     #[error("{action} {}", path.display())]
     Io {
@@ -64,6 +64,12 @@ pub enum Error {
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+impl From<topa_train::Error> for Error {
+    fn from(e: topa_train::Error) -> Error {
+        Error::Train(Box::new(e))
+    }
+}
+
 impl From<trainer::vec_env::EnvFailure> for Error {
     fn from(e: trainer::vec_env::EnvFailure) -> Error {
         Error::Simulation(e)
@@ -95,7 +101,13 @@ pub(crate) use invalid;
 
 /// `invalid!` unless `cond` holds.
 macro_rules! ensure {
-    ($cond:expr, $($arg:tt)*) => { if !$cond { $crate::error::invalid!($($arg)*); } };
+    // The condition is bound first: `!(x >= 0.0)` written in place reads as a negated float comparison.
+    ($cond:expr, $($arg:tt)*) => {
+        let holds: bool = $cond;
+        if !holds {
+            $crate::error::invalid!($($arg)*);
+        }
+    };
 }
 pub(crate) use ensure;
 

@@ -233,7 +233,7 @@ fn comparison(better: &GroupRow, base: &GroupRow, who: &str) -> String {
 
 /// Writes terrain.{md,json} and each policy's success heatmap into `out`; returns the Markdown.
 pub fn write(r: &TerrainReport, out: &Path) -> Result<String> {
-    std::fs::create_dir_all(out).map_err(crate::Error::io("creating", out))?;
+    std::fs::create_dir_all(out).map_err(crate::error::Error::io("creating", out))?;
     let md = markdown(r);
     super::report::write_text(out, "terrain.md", &format!("# Terrain\n\n{md}"))?;
     super::report::write_json(out, "terrain.json", r)?;

@@ -9,13 +9,13 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use anyhow::{ensure, Context, Result};
 use mujoco::{Data, Model, ObjType};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use topa_env::sim2sim::actuators::ActuatorConfig;
 
 use super::log::{Command, MotorLog};
+use crate::error::{ensure_bench, Error, Result};
 
 /// One motor's identified parameters.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -94,8 +94,9 @@ const SLOPE_HALF_WIDTH: usize = 5;
 impl Bench {
     /// Loads the bench MJCF and matches it to the log's motors (by actuator name).
     pub fn load(path: &Path, log: &MotorLog) -> Result<Bench> {
-        let model = Model::from_xml_path(path)
-            .with_context(|| format!("bench MJCF {} (docs/sysid.md describes the format)", path.display()))?;
+        let model = Model::from_xml_path(path).map_err(|e| {
+            Error::bench(format!("bench MJCF {} (docs/sysid.md describes the format)", path.display()), e)
+        })?;
         let motors = Self::motors_of(&model, path, log)?;
         Self::from_model(model, path, motors, log, None)
     }
@@ -106,22 +107,22 @@ impl Bench {
         let mut motors = Vec::new();
         for m in &log.motors {
             let a = model.id(ObjType::Actuator, &m.name).map_err(|_| {
-                anyhow::anyhow!(
+                Error::bad_bench(format!(
                     "motor {} of the log is not an actuator of {} (it has: {})",
                     m.name,
                     path.display(),
                     actuators.join(", ")
-                )
+                ))
             })?;
             let (kind, joint) = (model.actuator_trntype(a), model.actuator_trnid()[a][0]);
-            ensure!(
+            ensure_bench!(
                 kind == mujoco::Transmission::Joint,
                 "actuator {} of {} must drive a joint",
                 m.name,
                 path.display()
             );
             let joint = joint as usize;
-            ensure!(
+            ensure_bench!(
                 model.jnt_type(joint) == mujoco::JointType::Hinge,
                 "actuator {} of {} drives a joint that is not a hinge",
                 m.name,
@@ -136,7 +137,7 @@ impl Bench {
         }
         for a in 0..model.nu() {
             let name = model.name_of(ObjType::Actuator, a).unwrap_or("");
-            ensure!(
+            ensure_bench!(
                 log.motors.iter().any(|m| m.name == name),
                 "actuator {name} of {} has no columns in the log: log every motor of the bench",
                 path.display()
@@ -155,7 +156,7 @@ impl Bench {
         start_pose: Option<StartPose>,
     ) -> Result<Bench> {
         if start_pose.is_none() {
-            ensure!(
+            ensure_bench!(
                 model.nv() == motors.len() && model.nq() == motors.len(),
                 "{} has {} degrees of freedom and the log {} motors: every joint of a bench must be a logged motor \
                  (a window starts from the logged state)",
@@ -167,7 +168,7 @@ impl Bench {
         let tree = trees(&model, &motors);
         let (step, dt) = (log.step(), model.timestep());
         let substeps = (step / dt).round().max(1.0) as usize;
-        ensure!(
+        ensure_bench!(
             (substeps as f64 * dt - step).abs() < 1e-3 * step,
             "the log's sample step {step} s is not a whole number of the bench's timestep {dt} s: set \
              <option timestep> in {} to divide it",
@@ -259,9 +260,7 @@ impl Bench {
                     let u = delayed(log, m, &history[m], log.time[start], t, dt, p.delay_s);
                     data.qfrc_applied_mut()[b.dof] = p.motors[m].torque_constant * u;
                 }
-                data.step().with_context(|| {
-                    format!("the bench simulation diverged at t = {t:.3} s; the parameters are out of reach")
-                })?;
+                data.step().map_err(|source| Error::Diverged { t, source })?;
             }
             if i + 1 > start + self.burn_in {
                 out.extend(self.motors.iter().map(|b| data.qpos()[b.qpos]));

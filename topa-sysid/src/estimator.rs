@@ -9,7 +9,6 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::{ensure, Context, Result};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -19,6 +18,7 @@ use topa_env::sim2sim::FilterSample;
 use topa_env::VecEnv;
 
 use super::lm::{self, DMatrix, Residuals};
+use crate::error::{ensure, ensure_file, Error, Result};
 use topa_eval::settings::EvalSettings;
 
 /// The commands the recording walks through, each held for `COMMAND_S`: forward, curving, backward, sideways,
@@ -48,7 +48,8 @@ pub fn record(runner: &mut PolicyRunner, settings: &EvalSettings, seconds: f64) 
     let cfg = settings.env_config(runner)?;
     ensure!(cfg.sim2sim.estimator.enabled, "recording the estimator needs a sim2sim mode with the estimator on");
     let mut batch = topa_env::vec_env::robot_batch(&cfg, 1, settings.seed, 1)?;
-    batch.tasks_mut()[0].sim2sim_mut().context("no sim2sim state")?.recording = Some(Vec::new());
+    batch.tasks_mut()[0].sim2sim_mut().ok_or_else(|| Error::Invalid("no sim2sim state".into()))?.recording =
+        Some(Vec::new());
     batch.reset()?;
     let dt = cfg.policy_dt();
     let mut actions = Vec::new();
@@ -184,13 +185,12 @@ pub fn to_csv(samples: &[FilterSample]) -> String {
 /// Reads a recording written by [`to_csv`] (or by a robot in its columns); an empty `restart_height` means no
 /// restart, and a restart starts the feet where that row's kinematics puts them.
 pub fn read_csv(path: &Path) -> Result<Vec<FilterSample>> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read the recording {}", path.display()))?;
+    let text = std::fs::read_to_string(path).map_err(Error::io("cannot read the recording", path))?;
     let mut lines = text.lines().filter(|l| !l.trim().is_empty() && !l.starts_with('#'));
-    let header: Vec<&str> = lines.next().context("empty recording")?.split(',').collect();
+    let header: Vec<&str> = lines.next().ok_or_else(|| Error::bad_file("empty recording"))?.split(',').collect();
     let feet = header.iter().filter(|h| h.ends_with("_contact")).count();
     let expected = 4 + 8 * feet + 4;
-    ensure!(
+    ensure_file!(
         feet > 0 && header.len() == expected && header[0] == "dt" && header[expected - 1] == "restart_height",
         "recording {}: expected the columns dt, accel_x..z, per foot foot<i>_x..z, foot<i>_vx..vz, foot<i>_contact, \
          foot<i>_spin, then true_vx..vz and restart_height (docs/sysid.md)",
@@ -199,7 +199,7 @@ pub fn read_csv(path: &Path) -> Result<Vec<FilterSample>> {
     let mut out = Vec::new();
     for (row, line) in lines.enumerate() {
         let f: Vec<&str> = line.split(',').collect();
-        ensure!(
+        ensure_file!(
             f.len() == expected,
             "recording {}: row {} has {} fields, not {expected}",
             path.display(),
@@ -207,16 +207,19 @@ pub fn read_csv(path: &Path) -> Result<Vec<FilterSample>> {
             f.len()
         );
         let num = |i: usize| -> Result<f64> {
-            let v: f64 = f[i].trim().parse().with_context(|| {
-                format!(
-                    "recording {}: row {}, column {}: {:?} is not a number",
-                    path.display(),
-                    row + 1,
-                    header[i],
-                    f[i]
+            let v: f64 = f[i].trim().parse().map_err(|e| {
+                Error::file(
+                    format!(
+                        "recording {}: row {}, column {}: {:?} is not a number",
+                        path.display(),
+                        row + 1,
+                        header[i],
+                        f[i]
+                    ),
+                    e,
                 )
             })?;
-            ensure!(v.is_finite(), "recording {}: row {}, column {}: {v}", path.display(), row + 1, header[i]);
+            ensure_file!(v.is_finite(), "recording {}: row {}, column {}: {v}", path.display(), row + 1, header[i]);
             Ok(v)
         };
         let v3 = |i: usize| -> Result<Vector3<f64>> { Ok(Vector3::new(num(i)?, num(i + 1)?, num(i + 2)?)) };
@@ -229,7 +232,7 @@ pub fn read_csv(path: &Path) -> Result<Vec<FilterSample>> {
             input.foot_spin.push(num(b + 7)?);
         }
         let dt = num(0)?;
-        ensure!(dt > 0.0, "recording {}: row {}: dt {dt} must be positive", path.display(), row + 1);
+        ensure_file!(dt > 0.0, "recording {}: row {}: dt {dt} must be positive", path.display(), row + 1);
         let restart = match f[expected - 1].trim() {
             "" => None,
             _ => Some((num(expected - 1)?, input.foot_rel.clone())),
@@ -237,7 +240,7 @@ pub fn read_csv(path: &Path) -> Result<Vec<FilterSample>> {
         let truth = v3(4 + 8 * feet)?;
         out.push(FilterSample { dt, input, truth, estimate: Vector3::zeros(), restart });
     }
-    ensure!(!out.is_empty(), "recording {}: no rows", path.display());
+    ensure_file!(!out.is_empty(), "recording {}: no rows", path.display());
     if out[0].restart.is_none() {
         let h = -out[0].input.foot_rel.iter().map(|r| r.z).sum::<f64>() / feet as f64;
         out[0].restart = Some((h, out[0].input.foot_rel.clone()));

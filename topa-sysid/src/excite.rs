@@ -6,7 +6,7 @@
 use std::f64::consts::{PI, TAU};
 use std::fmt::Write as _;
 
-use anyhow::{ensure, Result};
+use crate::error::{ensure, Result};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -3,7 +3,7 @@
 //! from the logged state, so drift never dominates), with box bounds and 95 % confidence intervals.
 
 use super::lm::{self, DMatrix, Residuals};
-use anyhow::{ensure, Result};
+use crate::error::{ensure, Result};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 

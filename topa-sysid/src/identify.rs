@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::{ensure, Result};
+use crate::error::{ensure, Result};
 use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
 

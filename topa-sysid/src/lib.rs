@@ -17,6 +17,7 @@
 //! ```
 
 pub mod bench;
+pub mod error;
 pub mod estimator;
 pub mod excite;
 pub mod fit;
@@ -27,3 +28,5 @@ pub mod robot;
 pub mod spectrum_plot;
 pub mod synthetic;
 pub mod tuning;
+
+pub use error::{Error, Result};

@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::{bail, ensure, Context, Result};
+use crate::error::{bad_file, ensure_file, Error, Result};
 
 /// What a motor was commanded.
 #[derive(Debug, Clone, PartialEq)]
@@ -52,23 +52,26 @@ const GAP_FACTOR: f64 = 1.5;
 
 impl MotorLog {
     pub fn read(path: &Path) -> Result<MotorLog> {
-        let text = std::fs::read_to_string(path).with_context(|| {
-            format!("cannot read the log {} (give a CSV as docs/sysid.md describes)", path.display())
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            Error::file(format!("cannot read the log {} (give a CSV as docs/sysid.md describes)", path.display()), e)
         })?;
-        Self::parse(&text).with_context(|| format!("log {}", path.display()))
+        Self::parse(&text).map_err(|e| Error::file(format!("log {}", path.display()), e))
     }
 
     pub fn parse(text: &str) -> Result<MotorLog> {
         let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty() && !l.starts_with('#'));
-        let (_, header) = lines.next().context("no header row (time,<motor>:<quantity>,…)")?;
+        let (_, header) = lines.next().ok_or_else(|| Error::bad_file("no header row (time,<motor>:<quantity>,…)"))?;
         let columns: Vec<&str> = header.split(',').map(str::trim).collect();
-        ensure!(columns.first() == Some(&"time"), "the first column must be `time`, not {:?}", columns.first());
+        ensure_file!(columns.first() == Some(&"time"), "the first column must be `time`, not {:?}", columns.first());
         let mut names: Vec<&str> = Vec::new();
         for c in &columns[1..] {
-            let (motor, q) = c.split_once(':').with_context(|| {
-                format!("column {c:?}: expected <motor>:<quantity> with quantity one of {}", QUANTITIES.join(", "))
+            let (motor, q) = c.split_once(':').ok_or_else(|| {
+                Error::bad_file(format!(
+                    "column {c:?}: expected <motor>:<quantity> with quantity one of {}",
+                    QUANTITIES.join(", ")
+                ))
             })?;
-            ensure!(
+            ensure_file!(
                 QUANTITIES.contains(&q),
                 "column {c:?}: unknown quantity {q:?} (expected one of {})",
                 QUANTITIES.join(", ")
@@ -78,12 +81,12 @@ impl MotorLog {
             }
         }
         for (i, c) in columns.iter().enumerate() {
-            ensure!(!columns[..i].contains(c), "column {c:?} appears twice");
+            ensure_file!(!columns[..i].contains(c), "column {c:?} appears twice");
         }
         let mut data: Vec<Vec<f64>> = vec![Vec::new(); columns.len()];
         for (line_no, line) in lines {
             let fields: Vec<&str> = line.split(',').collect();
-            ensure!(
+            ensure_file!(
                 fields.len() == columns.len(),
                 "line {}: {} fields, the header has {}",
                 line_no + 1,
@@ -91,11 +94,10 @@ impl MotorLog {
                 columns.len()
             );
             for ((f, col), out) in fields.iter().zip(&columns).zip(&mut data) {
-                let v: f64 = f
-                    .trim()
-                    .parse()
-                    .with_context(|| format!("line {}, column {col}: {:?} is not a number", line_no + 1, f.trim()))?;
-                ensure!(
+                let v: f64 = f.trim().parse().map_err(|e| {
+                    Error::file(format!("line {}, column {col}: {:?} is not a number", line_no + 1, f.trim()), e)
+                })?;
+                ensure_file!(
                     v.is_finite(),
                     "line {}, column {col}: {v} (NaN or infinite samples are not allowed)",
                     line_no + 1
@@ -104,16 +106,16 @@ impl MotorLog {
             }
         }
         let time = std::mem::take(&mut data[0]);
-        ensure!(time.len() >= 10, "{} samples: a log needs at least 10", time.len());
+        ensure_file!(time.len() >= 10, "{} samples: a log needs at least 10", time.len());
         let dts: Vec<f64> = time.windows(2).map(|w| w[1] - w[0]).collect();
         if let Some(i) = dts.iter().position(|&d| d <= 0.0) {
-            bail!("time is not increasing at t = {} s (sample {}): sort the rows by time", time[i + 1], i + 2);
+            bad_file!("time is not increasing at t = {} s (sample {}): sort the rows by time", time[i + 1], i + 2);
         }
         let mut sorted = dts.clone();
         sorted.sort_by(f64::total_cmp);
         let median = sorted[sorted.len() / 2];
         if let Some(i) = dts.iter().position(|&d| d > GAP_FACTOR * median) {
-            bail!(
+            bad_file!(
                 "a gap of {:.4} s after t = {} s (the log's step is {median:.4} s): the fit needs evenly sampled data; \
                  split the log at the gap",
                 dts[i],
@@ -125,10 +127,10 @@ impl MotorLog {
         let mut motors = Vec::new();
         for name in names {
             let position = col(name, "position")
-                .with_context(|| format!("motor {name}: no `{name}:position` column (measured, rad)"))?;
+                .ok_or_else(|| Error::bad_file(format!("motor {name}: no `{name}:position` column (measured, rad)")))?;
             let commands: Vec<&str> =
                 ["target", "torque", "current"].into_iter().filter(|q| col(name, q).is_some()).collect();
-            ensure!(
+            ensure_file!(
                 commands.len() == 1,
                 "motor {name}: {} command columns ({}); give exactly one of {name}:target (with :kp and :kd), \
                  {name}:torque or {name}:current",
@@ -138,14 +140,16 @@ impl MotorLog {
             let command = match commands[0] {
                 "target" => Command::Position {
                     target: col(name, "target").unwrap(),
-                    kp: col(name, "kp").with_context(|| format!("motor {name}: a position target needs {name}:kp"))?,
-                    kd: col(name, "kd").with_context(|| format!("motor {name}: a position target needs {name}:kd"))?,
+                    kp: col(name, "kp")
+                        .ok_or_else(|| Error::bad_file(format!("motor {name}: a position target needs {name}:kp")))?,
+                    kd: col(name, "kd")
+                        .ok_or_else(|| Error::bad_file(format!("motor {name}: a position target needs {name}:kd")))?,
                 },
                 "torque" => Command::Torque(col(name, "torque").unwrap()),
                 _ => Command::Current(col(name, "current").unwrap()),
             };
             if !matches!(command, Command::Position { .. }) {
-                ensure!(
+                ensure_file!(
                     col(name, "kp").is_none() && col(name, "kd").is_none(),
                     "motor {name}: kp/kd columns belong to a position target, and this motor logs its {}",
                     command.kind()
@@ -153,7 +157,7 @@ impl MotorLog {
             }
             motors.push(MotorTrace { name: name.to_string(), command, position, velocity: col(name, "velocity") });
         }
-        ensure!(!motors.is_empty(), "no motor columns after `time`");
+        ensure_file!(!motors.is_empty(), "no motor columns after `time`");
         Ok(MotorLog { time, motors })
     }
 

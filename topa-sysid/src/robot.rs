@@ -5,7 +5,6 @@
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-use anyhow::{Context, Result};
 use mujoco::{Model, ObjType};
 use topa_env::linkage::Linkage;
 use topa_env::spec::RobotSpec;
@@ -13,6 +12,7 @@ use xmltree::{Element, EmitterConfig, XMLNode};
 
 use super::bench::{Bench, StartPose};
 use super::log::MotorLog;
+use crate::error::{Error, Result};
 
 /// The longest physics step the hung robot runs at, s: semi-implicit Euler at 1 ms. Hung, it has no impacts (where
 /// its MJCF's RK4 earns its cost), and Euler at 1 ms costs half of RK4 at 2 ms.
@@ -25,10 +25,10 @@ pub fn hung_bench(spec_path: &Path, log: &MotorLog) -> Result<Bench> {
     // MuJoCo writes the loaded file flattened (includes inlined); the base joint and keyframes go, the rest stays.
     let flat = std::env::temp_dir().join(format!("topa-hung-{}.xml", std::process::id()));
     Model::from_xml_path(&mjcf)?.save_last_xml(&flat)?;
-    let text = std::fs::read_to_string(&flat).context("reading the flattened robot MJCF back")?;
+    let text = std::fs::read_to_string(&flat).map_err(|e| Error::bench("reading the flattened robot MJCF back", e))?;
     let _ = std::fs::remove_file(&flat);
     let fixed_text = without_floating_base(&text)?
-        .with_context(|| format!("{}: not one floating base (a freejoint) to fix", mjcf.display()))?;
+        .ok_or_else(|| Error::bad_bench(format!("{}: not one floating base (a freejoint) to fix", mjcf.display())))?;
     let dir = mjcf.parent().unwrap_or(Path::new("."));
     let mut model = Model::from_xml_string(&fixed_text, dir)?;
     model.set_contacts_enabled(false);
@@ -42,7 +42,9 @@ pub fn hung_bench(spec_path: &Path, log: &MotorLog) -> Result<Bench> {
     // The fixed model's joints in the free model's qpos (same names; the free model has the base in front).
     let mut map = Vec::new();
     for j in 0..model.njnt() {
-        let name = model.name_of(ObjType::Joint, j).context("every joint of the robot needs a name")?;
+        let name = model
+            .name_of(ObjType::Joint, j)
+            .ok_or_else(|| Error::bad_bench("every joint of the robot needs a name"))?;
         let k = free_model.id(ObjType::Joint, name)?;
         map.push((model.jnt_qposadr_of(j), free_model.jnt_qposadr_of(k)));
     }
@@ -51,8 +53,12 @@ pub fn hung_bench(spec_path: &Path, log: &MotorLog) -> Result<Bench> {
         .motors
         .iter()
         .map(|m| {
-            log.motors.iter().position(|l| l.name == m.actuator).with_context(|| {
-                format!("motor {} of {} has no columns in the log: log all of them", m.actuator, spec_path.display())
+            log.motors.iter().position(|l| l.name == m.actuator).ok_or_else(|| {
+                Error::bad_bench(format!(
+                    "motor {} of {} has no columns in the log: log all of them",
+                    m.actuator,
+                    spec_path.display()
+                ))
             })
         })
         .collect::<Result<_>>()?;
@@ -60,7 +66,7 @@ pub fn hung_bench(spec_path: &Path, log: &MotorLog) -> Result<Bench> {
     let nq = model.nq();
     let start_pose: StartPose = Box::new(move |logged: &[f64]| {
         let motors: Vec<f64> = order.iter().map(|&i| logged[i]).collect();
-        let free = linkage.lock().map_err(|_| anyhow::anyhow!("loop-closure solver poisoned"))?.closed_qpos(&motors)?;
+        let free = linkage.lock().map_err(|_| Error::Poisoned("loop-closure solver"))?.closed_qpos(&motors)?;
         let mut q = vec![0.0; nq];
         for &(fixed, f) in &map {
             q[fixed] = free[f];
@@ -86,7 +92,8 @@ pub fn bench_or_hung(bench: &Path, robot: Option<&Path>, log: &MotorLog) -> Resu
 /// The MJCF without its `<freejoint …/>` (or `<joint … type="free" …/>`) and without keyframes (their qpos has the
 /// base's seven numbers); None when it has no floating base, or more than one (two robots are not one on a stand).
 fn without_floating_base(xml: &str) -> Result<Option<String>> {
-    let mut root = Element::parse(xml.as_bytes()).context("the flattened MJCF is not well-formed XML")?;
+    let mut root =
+        Element::parse(xml.as_bytes()).map_err(|e| Error::bench("the flattened MJCF is not well-formed XML", e))?;
     let removed = remove_floating_joints(&mut root);
     root.children.retain(|c| c.as_element().is_none_or(|e| e.name != "keyframe"));
     if removed != 1 {
@@ -94,8 +101,8 @@ fn without_floating_base(xml: &str) -> Result<Option<String>> {
     }
     let mut out = Vec::new();
     root.write_with_config(&mut out, EmitterConfig::new().write_document_declaration(false))
-        .context("writing the hung robot's MJCF")?;
-    Ok(Some(String::from_utf8(out).context("the written MJCF is not UTF-8")?))
+        .map_err(|e| Error::bench("writing the hung robot's MJCF", e))?;
+    Ok(Some(String::from_utf8(out).map_err(|e| Error::bench("the written MJCF is not UTF-8", e))?))
 }
 
 /// Removes every floating joint under `e`, returning how many there were.

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use anyhow::Result;
+use crate::error::Result;
 use plotters::prelude::*;
 
 use super::excite::{spectrum, Design};

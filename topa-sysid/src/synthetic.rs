@@ -4,13 +4,13 @@
 
 use std::path::Path;
 
-use anyhow::{ensure, Context, Result};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use topa_env::sim2sim::sensors::{gaussian, EncoderConfig};
 
 use super::bench::{Bench, Params};
 use super::log::{Command, MotorLog, MotorTrace};
+use crate::error::{bad_file, ensure_file, Error, Result};
 
 /// How the synthetic sensors read the true motion.
 #[derive(Debug, Clone, Copy)]
@@ -34,25 +34,25 @@ impl SensorModel {
 /// a log with the positions still empty (held at the first target, or zero, until simulated) and the PD gains
 /// zero until [`drive_gains_from_model`] sets them.
 pub fn read_excitation(path: &Path) -> Result<MotorLog> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read the excitation {}", path.display()))?;
+    let text = std::fs::read_to_string(path).map_err(Error::io("cannot read the excitation", path))?;
     let mut lines = text.lines().filter(|l| !l.trim().is_empty() && !l.starts_with('#'));
-    let header: Vec<&str> = lines.next().context("no header")?.split(',').collect();
-    ensure!(header[0] == "time", "excitation {}: the first column must be `time`", path.display());
+    let header: Vec<&str> = lines.next().ok_or_else(|| Error::bad_file("no header"))?.split(',').collect();
+    ensure_file!(header[0] == "time", "excitation {}: the first column must be `time`", path.display());
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); header.len()];
     for (i, l) in lines.enumerate() {
         let f: Vec<&str> = l.split(',').collect();
-        ensure!(f.len() == header.len(), "excitation {}: row {} has {} fields", path.display(), i + 1, f.len());
+        ensure_file!(f.len() == header.len(), "excitation {}: row {} has {} fields", path.display(), i + 1, f.len());
         for (c, v) in cols.iter_mut().zip(f) {
-            let x: f64 = v.trim().parse().with_context(|| format!("excitation {}: {v:?}", path.display()))?;
-            ensure!(x.is_finite(), "excitation {}: row {} has {x}", path.display(), i + 1);
+            let x: f64 =
+                v.trim().parse().map_err(|e| Error::file(format!("excitation {}: {v:?}", path.display()), e))?;
+            ensure_file!(x.is_finite(), "excitation {}: row {} has {x}", path.display(), i + 1);
             c.push(x);
         }
     }
     let time = cols[0].clone();
     let mut motors = Vec::new();
     for (c, name) in header.iter().enumerate().skip(1) {
-        let (motor, q) = name.split_once(':').with_context(|| format!("excitation column {name:?}"))?;
+        let (motor, q) = name.split_once(':').ok_or_else(|| Error::bad_file(format!("excitation column {name:?}")))?;
         let u = cols[c].clone();
         let (command, rest) = match q {
             "target" => {
@@ -60,7 +60,7 @@ pub fn read_excitation(path: &Path) -> Result<MotorLog> {
                 (Command::Position { target: u.clone(), kp: vec![0.0; n], kd: vec![0.0; n] }, u[0])
             }
             "torque" => (Command::Torque(u), 0.0),
-            _ => anyhow::bail!("excitation column {name:?}: expected <motor>:target or <motor>:torque"),
+            _ => bad_file!("excitation column {name:?}: expected <motor>:target or <motor>:torque"),
         };
         motors.push(MotorTrace { name: motor.to_string(), command, position: vec![rest; time.len()], velocity: None });
     }

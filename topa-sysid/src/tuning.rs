@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use anyhow::Result;
+use crate::error::{Error, Result};
 use topa_eval::settings::{EvalSettings, Sim2SimMode};
 
 use crate::estimator;
@@ -54,7 +54,9 @@ pub fn run(
     topa_eval::report::write_text(out, "estimator.toml", &toml)?;
     // The file is what `--sim2sim` will read: it must load back to these values.
     let back = EvalSettings::default().with_sim2sim(&Sim2SimMode::File(out.join("estimator.toml")))?;
-    anyhow::ensure!(back.sim2sim == tuned, "estimator.toml does not load back to the tuned values (a bug)");
+    if back.sim2sim != tuned {
+        return Err(Error::bad_file("estimator.toml does not load back to the tuned values (a bug)"));
+    }
     topa_eval::report::write_json(out, "estimator.json", &(&t, closed))?;
     let md = estimator::markdown(&t, closed);
     topa_eval::report::write_text(out, "estimator.md", &md)?;

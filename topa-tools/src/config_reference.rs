@@ -5,12 +5,13 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use anyhow::{Context, Result};
 use schemars::JsonSchema;
 use serde::Serialize;
 use serde_json::Value as Json;
 use topa_env::EnvConfig;
 use trainer::config::{AdversaryConfig, LossConfig, NetworkConfig, PpoConfig, RunConfig, TrainConfig};
+
+use crate::error::{Error, Result};
 
 /// A training config with its `[env]` table typed, every key present: what `topa config show` prints. The
 /// learner's tables come first, then the task's, each in its fields' order.
@@ -39,12 +40,12 @@ impl<'a> Resolved<'a> {
 
 /// `cfg` with `env` as TOML text, every key with its value (the file's or the default).
 pub fn resolved_toml(cfg: &TrainConfig, env: &EnvConfig) -> Result<String> {
-    toml::to_string(&Resolved::new(cfg, env)).context("serialising a resolved config")
+    toml::to_string(&Resolved::new(cfg, env)).map_err(Error::Toml)
 }
 
 /// The same as a table (for lookups by key).
 pub fn resolved_table(cfg: &TrainConfig, env: &EnvConfig) -> Result<toml::Table> {
-    toml::Table::try_from(Resolved::new(cfg, env)).context("serialising a resolved config")
+    toml::Table::try_from(Resolved::new(cfg, env)).map_err(Error::Toml)
 }
 
 /// `topa config show FILE`: the file with its `base` chain merged and every key it leaves out at its default.
@@ -131,9 +132,11 @@ pub fn sections(paper: &Path) -> Result<Vec<Section>> {
         for key in keys {
             let full: Vec<&str> = path.iter().copied().chain([key.as_str()]).collect();
             let (root, prop) =
-                schemas.property(&full).with_context(|| format!("{table}.{key} is not in the schema"))?;
-            let default = lookup(&defaults, &full).with_context(|| format!("{table}.{key} has no default"))?;
-            let paper_value = lookup(&paper_values, &full).with_context(|| format!("{table}.{key}: paper"))?;
+                schemas.property(&full).ok_or_else(|| Error::Schema(format!("{table}.{key} is not in the schema")))?;
+            let default =
+                lookup(&defaults, &full).ok_or_else(|| Error::Schema(format!("{table}.{key} has no default")))?;
+            let paper_value =
+                lookup(&paper_values, &full).ok_or_else(|| Error::Schema(format!("{table}.{key}: paper")))?;
             let set = lookup(&written, &full).is_some() || (full == ["env", "robot"] && written_model(&written));
             rows.push(Row {
                 ty: type_name(root, prop),

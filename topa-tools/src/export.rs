@@ -20,13 +20,14 @@
 
 use std::path::Path;
 
-use anyhow::{bail, ensure, Context, Result};
 use prost::Message;
 use topa_env::observation::{Block, ObsLayout};
 use tract_onnx::pb;
 use trainer::policy_file::Policy;
 
 use topa_env::policy_runner::PolicyRunner;
+
+use crate::error::{bad_file, Error, Result};
 
 pub const OPSET: i64 = 17;
 pub const INPUT: &str = "obs";
@@ -117,13 +118,9 @@ pub fn build(runner: &PolicyRunner, source: &str, motor_targets: bool) -> Result
     let robot = runner.robot();
     let layout = runner.layout();
     let (n, obs_dim) = (layout.n_motors, layout.dim());
-    ensure!(
-        m.obs_dim == obs_dim && m.action_dim == n,
-        "{source}: a {}→{} policy cannot drive {} ({obs_dim} → {n})",
-        m.obs_dim,
-        m.action_dim,
-        robot.name
-    );
+    if m.obs_dim != obs_dim || m.action_dim != n {
+        bad_file!("{source}: a {}→{} policy cannot drive {} ({obs_dim} → {n})", m.obs_dim, m.action_dim, robot.name);
+    }
     let (mut nodes, mut inits) = (Vec::new(), Vec::new());
     let mut x = INPUT.to_string();
     let map = runner.joint_map();
@@ -243,15 +240,15 @@ pub fn export(policy_path: &Path, out: &Path, motor_targets: bool) -> Result<(us
 
 /// Reads an ONNX file written by `export`, refusing anything else with one clear error.
 pub fn read(path: &Path) -> Result<pb::ModelProto> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let bytes = std::fs::read(path).map_err(Error::io("cannot read", path))?;
     let model = pb::ModelProto::decode(bytes.as_slice()).map_err(|e| {
-        anyhow::anyhow!("{} is not an ONNX model ({e}): export it again with `topa export`", path.display())
+        Error::file(format!("{} is not an ONNX model: export it again with `topa export`", path.display()), e)
     })?;
-    let graph = model.graph.as_ref().with_context(|| format!("{} holds no graph", path.display()))?;
+    let graph = model.graph.as_ref().ok_or_else(|| Error::bad_file(format!("{} holds no graph", path.display())))?;
     if graph.input.first().map(|i| i.name.as_str()) != Some(INPUT)
         || graph.output.first().map(|o| o.name.as_str()) != Some(OUTPUT)
     {
-        bail!("{} is not a TopA policy model (no '{INPUT}' input / '{OUTPUT}' output)", path.display());
+        bad_file!("{} is not a TopA policy model (no '{INPUT}' input / '{OUTPUT}' output)", path.display());
     }
     Ok(model)
 }
@@ -262,13 +259,12 @@ pub fn check(onnx: &Path, policy_path: &Path) -> Result<()> {
     let policy = Policy::load(policy_path)?;
     let crc = model.metadata_props.iter().find(|p| p.key == "policy_weights_crc32").map(|p| p.value.clone());
     if crc.as_deref() != Some(policy.meta.weights_crc32.to_string().as_str()) {
-        bail!(
-            "{} was not exported from {} (weights checksum {} vs {}): export it again",
-            onnx.display(),
-            policy_path.display(),
-            crc.unwrap_or_else(|| "missing".into()),
-            policy.meta.weights_crc32
-        );
+        return Err(Error::NotExportedFrom {
+            onnx: onnx.to_path_buf(),
+            policy: policy_path.to_path_buf(),
+            found: crc.unwrap_or_else(|| "missing".into()),
+            expected: policy.meta.weights_crc32,
+        });
     }
     Ok(())
 }

@@ -2,9 +2,10 @@
 
 use std::path::Path;
 
-use anyhow::Result;
 use mujoco::{EqualityType, Model, ObjType, Transmission};
 use serde::Serialize;
+
+use crate::error::Result;
 
 #[derive(Debug, Serialize)]
 pub struct ModelSummary {

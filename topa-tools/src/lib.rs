@@ -9,12 +9,15 @@
 //! let (obs, actions) = topa_tools::export::export(&policy, &onnx, false)?;
 //! assert_eq!((obs, actions), (42, 10)); // the paper's observation of a 10-motor robot
 //! topa_tools::export::check(&onnx, &policy)?;
-//! std::fs::remove_file(&onnx)?;
-//! # anyhow::Ok(())
+//! std::fs::remove_file(&onnx).map_err(topa_tools::Error::io("removing", &onnx))?;
+//! # Ok::<(), topa_tools::Error>(())
 //! ```
 
 pub mod bench;
 pub mod config_reference;
+pub mod error;
 pub mod export;
 pub mod info;
 pub mod robot_info;
+
+pub use error::{Error, Result};

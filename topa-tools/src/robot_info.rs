@@ -5,10 +5,11 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use anyhow::Result;
 use serde::Serialize;
 use topa_env::linkage::{JointMap, Linkage};
 use topa_env::spec::RobotSpec;
+
+use crate::error::Result;
 
 #[derive(Debug, Serialize)]
 pub struct RobotSummary {

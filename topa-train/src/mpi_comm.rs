@@ -19,9 +19,9 @@ pub struct MpiComm {
 
 impl MpiComm {
     /// Initialises MPI (threads other than the main one never call it: rayon's workers only step envs).
-    pub fn init() -> crate::Result<MpiComm> {
+    pub fn init() -> crate::error::Result<MpiComm> {
         let (universe, _) = mpi::initialize_with_threading(mpi::Threading::Funneled)
-            .ok_or_else(|| crate::Error::Ranks("MPI was already initialised in this process".into()))?;
+            .ok_or_else(|| crate::error::Error::Ranks("MPI was already initialised in this process".into()))?;
         let world = universe.world();
         Ok(MpiComm { _universe: universe, world, stats: StatsCell::default() })
     }

@@ -21,6 +21,6 @@ pub fn whole_number(v: &f64) -> String {
     format!("{v:.0}")
 }
 
-pub fn err<E: std::fmt::Debug>(e: E) -> crate::Error {
-    crate::Error::Plot(format!("{e:?}"))
+pub fn err<E: std::fmt::Debug>(e: E) -> crate::error::Error {
+    crate::error::Error::Plot(format!("{e:?}"))
 }

@@ -27,9 +27,9 @@ impl AttackMirror {
         perturbation: SignedPermutation,
         obs_dim: usize,
         bounds: &[f32],
-    ) -> crate::Result<Self> {
+    ) -> crate::error::Result<Self> {
         if obs.len() != obs_dim || perturbation.len() != bounds.len() {
-            return Err(crate::Error::Invalid(format!(
+            return Err(crate::error::Error::Invalid(format!(
                 "the task's mirrors cover {} observation and {} perturbation values, it has {obs_dim} and {}",
                 obs.len(),
                 perturbation.len(),
@@ -37,12 +37,12 @@ impl AttackMirror {
             )));
         }
         if !obs.is_involution() || !perturbation.is_involution() {
-            return Err(crate::Error::Invalid(
+            return Err(crate::error::Error::Invalid(
                 "the task's observation or perturbation mirror is not its own inverse".into(),
             ));
         }
         if let Some(i) = (0..bounds.len()).find(|&i| bounds[perturbation.perm[i]] != bounds[i]) {
-            return Err(crate::Error::Invalid(format!(
+            return Err(crate::error::Error::Invalid(format!(
                 "perturbation value {i} is bounded at {} and its mirror image at {}: mirrored attacks need equal bounds",
                 bounds[i],
                 bounds[perturbation.perm[i]]

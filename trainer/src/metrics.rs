@@ -65,7 +65,7 @@ impl MetricsWriter {
         perturbation_names: &[String],
         resume_iteration: Option<usize>,
     ) -> Result<Self> {
-        std::fs::create_dir_all(dir).map_err(Error::io("creating", &dir))?;
+        std::fs::create_dir_all(dir).map_err(Error::io("creating", dir))?;
         let mut columns: Vec<String> = [
             "iteration",
             "phase",
@@ -190,7 +190,7 @@ fn open_events(tb: &Path, resume_iteration: Option<usize>) -> Result<tboard::Eve
     old.sort();
     let mut kept: std::collections::BTreeMap<(i64, String), tboard::tensorboard::Event> = Default::default();
     for f in &old {
-        let file = std::fs::File::open(f).map_err(Error::io("cannot read", &f))?;
+        let file = std::fs::File::open(f).map_err(Error::io("cannot read", f))?;
         // A run killed mid-write leaves a torn last record: what precedes it is whole (CRC-checked).
         for event in tboard::SummaryReader::new(std::io::BufReader::new(file)).map_while(|e| e.ok()) {
             let Some(tboard::tensorboard::event::What::Summary(summary)) = &event.what else { continue };
@@ -206,7 +206,7 @@ fn open_events(tb: &Path, resume_iteration: Option<usize>) -> Result<tboard::Eve
     }
     writer.flush().map_err(te)?;
     for f in old.iter().filter(|f| Some(*f) != writer.filename()) {
-        std::fs::remove_file(f).map_err(Error::io("cannot remove", &f))?;
+        std::fs::remove_file(f).map_err(Error::io("cannot remove", f))?;
     }
     Ok(writer)
 }
@@ -236,7 +236,7 @@ fn tb_tag(column: &str) -> String {
 
 /// Reads `metrics.csv` back: column names and rows (empty cells as NaN). For plots and tests.
 pub fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>)> {
-    let text = std::fs::read_to_string(path).map_err(Error::io("cannot read", &path))?;
+    let text = std::fs::read_to_string(path).map_err(Error::io("cannot read", path))?;
     let mut lines = text.lines();
     let header: Vec<String> = lines.next().unwrap_or("").split(',').map(str::to_string).collect();
     let rows = lines.map(|l| l.split(',').map(|v| v.parse().unwrap_or(f64::NAN)).collect()).collect();

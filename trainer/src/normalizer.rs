@@ -125,16 +125,16 @@ impl Normalizer {
     }
 
     /// Replaces the statistics (loading a policy or checkpoint); checks the size.
-    pub fn set_stats(&mut self, mean: Vec<f64>, m2: Vec<f64>, count: f64) -> crate::Result<()> {
+    pub fn set_stats(&mut self, mean: Vec<f64>, m2: Vec<f64>, count: f64) -> crate::error::Result<()> {
         if mean.len() != self.dim() || m2.len() != self.dim() {
-            return Err(crate::Error::bad_file(format!(
+            return Err(crate::error::Error::bad_file(format!(
                 "normaliser has {} inputs, the file has {}",
                 self.dim(),
                 mean.len()
             )));
         }
         if !(count.is_finite() && count >= 0.0) || mean.iter().chain(&m2).any(|x| !x.is_finite()) {
-            return Err(crate::Error::bad_file("normaliser statistics are not finite"));
+            return Err(crate::error::Error::bad_file("normaliser statistics are not finite"));
         }
         self.mean = mean;
         self.m2 = m2;

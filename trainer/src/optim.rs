@@ -131,7 +131,7 @@ impl AdamW {
     }
 
     /// Restores moments saved from an optimiser over the same vars.
-    pub fn set_state(&mut self, state: AdamState) -> crate::Result<()> {
+    pub fn set_state(&mut self, state: AdamState) -> crate::error::Result<()> {
         let shapes_ok = state.m.len() == self.vars.len()
             && state.v.len() == self.vars.len()
             && self
@@ -140,7 +140,7 @@ impl AdamW {
                 .enumerate()
                 .all(|(i, v)| state.m[i].len() == v.elem_count() && state.v[i].len() == v.elem_count());
         if !shapes_ok {
-            return Err(crate::Error::bad_file("optimizer moments do not match the network's parameters"));
+            return Err(crate::error::Error::bad_file("optimizer moments do not match the network's parameters"));
         }
         self.state = state;
         Ok(())

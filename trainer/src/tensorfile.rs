@@ -63,7 +63,7 @@ impl Bundle {
 /// Writes `bytes` to `path` atomically: a crash leaves either the old file or the new one, never a torn one.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(Error::io("creating", &dir))?;
+    std::fs::create_dir_all(dir).map_err(Error::io("creating", dir))?;
     let name =
         path.file_name().ok_or_else(|| Error::Invalid(format!("{} names no file", path.display())))?.to_string_lossy();
     let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
@@ -88,7 +88,7 @@ pub struct Loaded {
 
 impl Loaded {
     pub fn read(path: &Path) -> Result<Loaded> {
-        let bytes = std::fs::read(path).map_err(Error::io("cannot read", &path))?;
+        let bytes = std::fs::read(path).map_err(Error::io("cannot read", path))?;
         Loaded::from_bytes(path, bytes)
     }
 

@@ -18,15 +18,18 @@ pub struct PathPoint {
 
 impl Path {
     /// A path through `pts` (at least two, no two consecutive ones equal).
-    pub fn new(pts: Vec<[f64; 2]>) -> crate::Result<Path> {
+    pub fn new(pts: Vec<[f64; 2]>) -> crate::error::Result<Path> {
         if pts.len() < 2 {
-            return Err(crate::EnvError::Course(format!("a path needs at least 2 points, this one has {}", pts.len())));
+            return Err(crate::error::EnvError::Course(format!(
+                "a path needs at least 2 points, this one has {}",
+                pts.len()
+            )));
         }
         let mut cum = vec![0.0];
         for (i, w) in pts.windows(2).enumerate() {
             let l = dist(w[0], w[1]);
             if l < 1e-6 || !l.is_finite() {
-                return Err(crate::EnvError::Course(format!(
+                return Err(crate::error::EnvError::Course(format!(
                     "path points {i} and {} are the same point (or not finite)",
                     i + 1
                 )));

@@ -2,7 +2,7 @@ use super::*;
 
 const INDOOR: &str = include_str!("../../../assets/courses/indoor.toml");
 
-fn with(extra: &str) -> crate::Result<Course> {
+fn with(extra: &str) -> crate::error::Result<Course> {
     Course::parse(&format!("{INDOOR}\n{extra}"))
 }
 

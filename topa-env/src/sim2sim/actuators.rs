@@ -37,19 +37,19 @@ impl ActuatorConfig {
         ]
     }
 
-    pub fn validate(&self, n_motors: usize) -> crate::Result<()> {
+    pub fn validate(&self, n_motors: usize) -> crate::error::Result<()> {
         if !self.enabled {
             return Ok(());
         }
         for (name, v) in self.lists() {
             if !v.is_empty() && v.len() != n_motors {
-                return Err(crate::EnvError::Config(format!(
+                return Err(crate::error::EnvError::Config(format!(
                     "sim2sim.actuators.{name} has {} values; the robot has {n_motors} motors (one each, or none)",
                     v.len()
                 )));
             }
             if v.iter().any(|x| !(x.is_finite() && *x >= 0.0)) || (name == "torque_constant" && v.contains(&0.0)) {
-                return Err(crate::EnvError::Config(format!(
+                return Err(crate::error::EnvError::Config(format!(
                     "sim2sim.actuators.{name}: values must be finite and positive (≥ 0 for friction)"
                 )));
             }

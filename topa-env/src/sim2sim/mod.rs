@@ -101,9 +101,9 @@ pub struct TorqueSpeedConfig {
 
 impl TorqueSpeedConfig {
     /// The table must cover one leg of a robot with `n_motors` motors (two legs of n/2).
-    pub fn check_motors(&self, n_motors: usize) -> crate::Result<()> {
+    pub fn check_motors(&self, n_motors: usize) -> crate::error::Result<()> {
         if self.enabled && self.full_torque_speed.len() * 2 != n_motors {
-            return Err(crate::EnvError::Config(format!(
+            return Err(crate::error::EnvError::Config(format!(
                 "sim2sim.torque_speed lists {} speeds per leg, the robot has {} motors per leg",
                 self.full_torque_speed.len(),
                 n_motors / 2
@@ -145,26 +145,28 @@ impl Sim2SimConfig {
         self.estimator.enabled || self.gyro.enabled || self.accel.enabled || self.orientation.enabled
     }
 
-    pub fn validate(&self) -> crate::Result<()> {
+    pub fn validate(&self) -> crate::error::Result<()> {
         for (name, n) in [("gyro", self.gyro), ("accel", self.accel), ("orientation", self.orientation)] {
             if [n.white, n.bias_initial, n.bias_walk].iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-                return Err(crate::EnvError::Config(format!("sim2sim.{name}: noise values must be finite and ≥ 0")));
+                return Err(crate::error::EnvError::Config(format!(
+                    "sim2sim.{name}: noise values must be finite and ≥ 0"
+                )));
             }
         }
         let e = &self.encoders;
         if !(e.counts_per_rev >= 0.0 && e.velocity_noise >= 0.0) {
-            return Err(crate::EnvError::Config(
+            return Err(crate::error::EnvError::Config(
                 "sim2sim.encoders: counts_per_rev and velocity_noise must be ≥ 0".into(),
             ));
         }
         let t = &self.torque_speed;
         if t.enabled && t.full_torque_speed.len() != t.no_load_speed.len() {
-            return Err(crate::EnvError::Config(
+            return Err(crate::error::EnvError::Config(
                 "sim2sim.torque_speed: full_torque_speed and no_load_speed need one value per leg joint each".into(),
             ));
         }
         if t.enabled && t.full_torque_speed.iter().zip(&t.no_load_speed).any(|(&w1, &w0)| !(w1 >= 0.0 && w0 > w1)) {
-            return Err(crate::EnvError::Config(
+            return Err(crate::error::EnvError::Config(
                 "sim2sim.torque_speed: need 0 ≤ full_torque_speed < no_load_speed for every joint".into(),
             ));
         }
@@ -179,12 +181,14 @@ impl Sim2SimConfig {
             f.swing_scale,
         ];
         if self.estimator.enabled && vals.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-            return Err(crate::EnvError::Config(
+            return Err(crate::error::EnvError::Config(
                 "sim2sim.estimator: every covariance and swing_scale must be positive".into(),
             ));
         }
         if !(self.timestep >= 0.0 && self.timestep.is_finite()) {
-            return Err(crate::EnvError::Config("sim2sim.timestep must be ≥ 0 (0 = the evaluation's own)".into()));
+            return Err(crate::error::EnvError::Config(
+                "sim2sim.timestep must be ≥ 0 (0 = the evaluation's own)".into(),
+            ));
         }
         Ok(())
     }

@@ -23,11 +23,11 @@ pub enum TileKind {
 }
 
 impl std::str::FromStr for TileKind {
-    type Err = crate::EnvError;
-    fn from_str(s: &str) -> std::result::Result<Self, crate::EnvError> {
+    type Err = crate::error::EnvError;
+    fn from_str(s: &str) -> std::result::Result<Self, crate::error::EnvError> {
         TileKind::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| {
             let names: Vec<&str> = TileKind::ALL.iter().map(|k| k.name()).collect();
-            crate::EnvError::Choice(format!("no tile type '{s}': use one of {}", names.join(", ")))
+            crate::error::EnvError::Choice(format!("no tile type '{s}': use one of {}", names.join(", ")))
         })
     }
 }
@@ -71,12 +71,14 @@ pub enum BoxContacts {
 }
 
 impl std::str::FromStr for BoxContacts {
-    type Err = crate::EnvError;
-    fn from_str(s: &str) -> std::result::Result<Self, crate::EnvError> {
+    type Err = crate::error::EnvError;
+    fn from_str(s: &str) -> std::result::Result<Self, crate::error::EnvError> {
         match s {
             "prisms" => Ok(BoxContacts::Prisms),
             "vertices" => Ok(BoxContacts::Vertices),
-            _ => Err(crate::EnvError::Choice(format!("no box contacts '{s}': use prisms (MuJoCo's) or vertices"))),
+            _ => {
+                Err(crate::error::EnvError::Choice(format!("no box contacts '{s}': use prisms (MuJoCo's) or vertices")))
+            }
         }
     }
 }

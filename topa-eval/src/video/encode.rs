@@ -28,7 +28,7 @@ impl VideoWriter {
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         let tmp = path.with_extension(format!("{ext}.tmp"));
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(Error::io("creating", &dir))?;
+            std::fs::create_dir_all(dir).map_err(Error::io("creating", dir))?;
         }
         let sink = match ext.as_str() {
             "gif" => {

@@ -91,9 +91,9 @@ pub struct FrameSize {
 }
 
 impl std::str::FromStr for FrameSize {
-    type Err = crate::Error;
-    fn from_str(s: &str) -> std::result::Result<Self, crate::Error> {
-        let bad = || crate::Error::Invalid(format!("a frame size is WIDTHxHEIGHT, e.g. 640x480, not '{s}'"));
+    type Err = crate::error::Error;
+    fn from_str(s: &str) -> std::result::Result<Self, crate::error::Error> {
+        let bad = || crate::error::Error::Invalid(format!("a frame size is WIDTHxHEIGHT, e.g. 640x480, not '{s}'"));
         let (w, h) = s.split_once('x').ok_or_else(bad)?;
         let (width, height) = (w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?);
         if width == 0 || height == 0 {

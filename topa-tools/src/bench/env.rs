@@ -7,13 +7,14 @@
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::Result;
 use mujoco::Data;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use topa_env::policy_runner::PolicyRunner;
 use topa_env::terrain::BoxContacts;
 use topa_env::{assets, EnvConfig, IntegratorChoice, ModelKind, VecEnv};
+
+use crate::error::Result;
 
 /// Single-thread mj_step/s of the model the envs use, stepping the stand pose with small random targets.
 pub fn physics_steps_per_second(cfg: &EnvConfig, seconds: f64) -> Result<f64> {

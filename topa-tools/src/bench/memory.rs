@@ -5,11 +5,12 @@
 
 use std::time::Instant;
 
-use anyhow::{Context, Result};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use topa_env::{EnvConfig, ModelKind, VecEnv};
 use trainer::policy_file::Policy;
+
+use crate::error::{Error, Result};
 
 /// Resident set size and minor page faults of this process.
 fn rss_and_faults() -> (usize, i64) {
@@ -77,8 +78,8 @@ pub fn run(envs: usize, steps: usize, policy: &std::path::Path, terrain: bool) -
     let t = &v.tasks()[0];
     let model_bytes = t.data().model().memory_bytes();
     let data_bytes = t.data().memory_bytes();
-    let m = t.data().model().raw();
-    let (nstack, nconmax, njmax) = (m.nstack as usize, m.nconmax as usize, m.njmax as usize);
+    let m = t.data().model();
+    let (nstack, nconmax, njmax) = (m.nstack(), m.nconmax(), m.njmax());
     let ground = if terrain { "on the default terrain" } else { "on the flat floor" };
     println!("{envs} TopA envs (closed model {ground}, domain randomisation on: each env owns its model copy)\n");
     println!("| per env | bytes |");
@@ -92,7 +93,7 @@ pub fn run(envs: usize, steps: usize, policy: &std::path::Path, terrain: bool) -
     );
     drop(v);
 
-    let mut p = Policy::load(policy).with_context(|| format!("walking policy {}", policy.display()))?;
+    let mut p = Policy::load(policy).map_err(|e| Error::file(format!("walking policy {}", policy.display()), e))?;
     println!(
         "largest use over {steps} policy steps × 64 envs per row (walking: {}, random: falling):\n",
         policy.display()

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use anyhow::{bail, Context, Result};
+use crate::error::{bad_bench, invalid, Error, Result};
 
 pub struct Args<'a> {
     pub config: &'a Path,
@@ -27,9 +27,9 @@ struct Launch {
 
 pub fn run(a: &Args) -> Result<()> {
     if a.ranks < 2 {
-        bail!("--ranks must be at least 2 (it is compared with one rank)");
+        invalid!("--ranks must be at least 2 (it is compared with one rank)");
     }
-    let exe = std::env::current_exe().context("locating the topa binary")?;
+    let exe = std::env::current_exe().map_err(|e| Error::bench("locating the topa binary", e))?;
     let dir = std::env::temp_dir().join(format!("topa-bench-mpi-{}", std::process::id()));
     let mut best: [Option<Launch>; 2] = [None, None];
     for round in 0..a.rounds {
@@ -88,17 +88,20 @@ fn launch(a: &Args, exe: &Path, np: usize, threads: usize, out: &PathBuf) -> Res
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
         .stdout(std::process::Stdio::null())
         .status()
-        .with_context(|| format!("starting {} (install Open MPI: TOPA_MPI=1 scripts/setup.sh)", a.mpirun))?;
+        .map_err(|e| {
+            Error::bench(format!("starting {} (install Open MPI: TOPA_MPI=1 scripts/setup.sh)", a.mpirun), e)
+        })?;
     if !status.success() {
-        bail!("mpirun -np {np} topa train failed ({status})");
+        bad_bench!("mpirun -np {np} topa train failed ({status})");
     }
     let (header, rows) = trainer::metrics::read_csv(&out.join("metrics.csv"))?;
-    let col = |name: &str| header.iter().position(|h| h == name).with_context(|| format!("no column {name}"));
+    let col =
+        |name: &str| header.iter().position(|h| h == name).ok_or_else(|| Error::bad_file(format!("no column {name}")));
     let (samples, collect, update, comm, bytes) =
         (col("samples")?, col("collect_s")?, col("update_s")?, col("comm_s")?, col("comm_bytes")?);
     let rows = &rows[a.warmup.min(rows.len())..];
     if rows.is_empty() {
-        bail!("no timed iterations in {}", out.display());
+        bad_bench!("no timed iterations in {}", out.display());
     }
     let sum = |c: usize| rows.iter().map(|r| r[c]).sum::<f64>();
     let wall = sum(collect) + sum(update);

@@ -6,9 +6,10 @@ use std::process::Command;
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
 use mujoco::{Data, Model, ObjType};
 use rayon::prelude::*;
+
+use crate::error::{bad_bench, Error, Result};
 
 /// Puts `d` where testspeed starts: keyframe "test" if the model has one, else qpos0.
 fn initial_data(model: &Arc<Model>) -> Result<Data> {
@@ -48,13 +49,9 @@ pub fn our_steps_per_second(model: &Arc<Model>, nstep: usize) -> Result<f64> {
 
 /// Runs `mujoco-testspeed MODEL nstep 1 0.01` and reads its "Steps per second".
 pub fn testspeed_steps_per_second(path: &Path, nstep: usize) -> Result<f64> {
-    let out = Command::new("mujoco-testspeed")
-        .arg(path)
-        .arg(nstep.to_string())
-        .arg("1")
-        .arg("0.01")
-        .output()
-        .context("cannot run mujoco-testspeed: install it with `apt-get install -y libmujoco-samples`")?;
+    let out = Command::new("mujoco-testspeed").arg(path).arg(nstep.to_string()).arg("1").arg("0.01").output().map_err(
+        |e| Error::bench("cannot run mujoco-testspeed: install it with `apt-get install -y libmujoco-samples`", e),
+    )?;
     let text = String::from_utf8_lossy(&out.stdout);
     let sps = text
         .lines()
@@ -62,13 +59,16 @@ pub fn testspeed_steps_per_second(path: &Path, nstep: usize) -> Result<f64> {
         .and_then(|v| v.trim().parse::<f64>().ok());
     match sps {
         Some(v) => Ok(v),
-        None => bail!("mujoco-testspeed printed no 'Steps per second' line:\n{text}"),
+        None => bad_bench!("mujoco-testspeed printed no 'Steps per second' line:\n{text}"),
     }
 }
 
 /// Steps `batch` Data, `nstep` steps each, on a pool of `threads`; returns total steps per second.
 pub fn batch_steps_per_second(model: &Arc<Model>, batch: usize, nstep: usize, threads: usize) -> Result<f64> {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::bench(format!("building a pool of {threads} threads"), e))?;
     let mut datas = (0..batch).map(|_| initial_data(model)).collect::<Result<Vec<_>>>()?;
     let start = Instant::now();
     pool.install(|| {

@@ -11,10 +11,11 @@
 use std::process::Command;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use topa_env::VecEnv;
 use trainer::Trainer;
+
+use crate::error::{Error, Result};
 
 const FLOP_PER_SAMPLE: f64 = 16.8e6;
 
@@ -43,10 +44,10 @@ pub fn worker(threads: usize, repeats: usize) -> Result<WorkerResult> {
     let env: Box<dyn VecEnv> = Box::new(topa_env::vec_env::robot_batch(&env_cfg, cfg.run.num_envs, 1, 0)?);
     let mut t = Trainer::new(cfg, env, false)?;
     t.iterate()?; // warm-up: buffers, first-touch, thread start
-    let log = t.iterate()?.context("iteration")?;
+    let log = t.iterate()?.ok_or_else(|| Error::bad_bench("iteration"))?;
     let mut best = log.update_s;
     for _ in 1..repeats {
-        best = best.min(t.iterate()?.context("iteration")?.update_s);
+        best = best.min(t.iterate()?.ok_or_else(|| Error::bad_bench("iteration"))?.update_s);
     }
     let samples = 24_576.0;
     Ok(WorkerResult {
@@ -62,7 +63,7 @@ pub fn worker(threads: usize, repeats: usize) -> Result<WorkerResult> {
 
 /// One worker process; `kernel` sets `NN_GEMM` in its environment (None: the CPU's best kernel).
 fn run_worker(threads: usize, repeats: usize, kernel: Option<&str>) -> Result<WorkerResult> {
-    let exe = std::env::current_exe()?;
+    let exe = std::env::current_exe().map_err(|e| Error::bench("locating the topa binary", e))?;
     let mut cmd = Command::new(exe);
     cmd.args(["bench", "ppo", "--worker", "--threads", &threads.to_string(), "--repeats", &repeats.to_string()]);
     if let Some(k) = kernel {
@@ -77,12 +78,15 @@ fn torch_samples_per_s(python: &str, threads: usize) -> Result<f64> {
         .arg(&script)
         .args(["--threads", &threads.to_string()])
         .output()
-        .with_context(|| format!("cannot run {python}"))?;
+        .map_err(Error::io("cannot run", std::path::Path::new(python)))?;
     let text = String::from_utf8_lossy(&out.stdout);
     text.lines()
         .find_map(|l| l.split("best: ").nth(1).and_then(|r| r.split_whitespace().next()).and_then(|v| v.parse().ok()))
-        .with_context(|| {
-            format!("torch reference printed no 'best:' line:\n{text}{}", String::from_utf8_lossy(&out.stderr))
+        .ok_or_else(|| {
+            Error::bad_bench(format!(
+                "torch reference printed no 'best:' line:\n{text}{}",
+                String::from_utf8_lossy(&out.stderr)
+            ))
         })
 }
 

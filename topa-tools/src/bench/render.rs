@@ -4,11 +4,12 @@
 
 use std::time::Instant;
 
-use anyhow::Result;
 use mujoco::render::{Quality, Renderer};
 use topa_env::{assets, EnvConfig, ModelKind, RobotEnv, Task};
 
 use topa_eval::video::{GlContext, VideoWriter};
+
+use crate::error::Result;
 
 pub fn run(width: usize, height: usize, frames: usize, quality: Quality) -> Result<()> {
     let _gl = GlContext::headless(width, height)?;

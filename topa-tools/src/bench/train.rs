@@ -16,9 +16,10 @@
 use std::process::Command;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use trainer::Trainer;
+
+use crate::error::{Error, Result};
 
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct WorkerResult {
@@ -66,11 +67,11 @@ fn time_phase(
     let warmup = warmup.min(len.saturating_sub(iterations.max(1)));
     let timed = iterations.min(len - warmup).max(1);
     for _ in 0..warmup {
-        t.iterate()?.context("warm-up iteration")?;
+        t.iterate()?.ok_or_else(|| Error::bad_bench("warm-up iteration"))?;
     }
     let start = Instant::now();
     for _ in 0..timed {
-        t.iterate()?.context("iteration")?;
+        t.iterate()?.ok_or_else(|| Error::bad_bench("iteration"))?;
     }
     Ok(start.elapsed().as_secs_f64() / timed as f64)
 }
@@ -102,7 +103,7 @@ pub fn worker(a: &Args, threads: usize) -> Result<WorkerResult> {
     let env = topa_env::vec_env::task_batch(&env_cfg, 0, cfg.run.num_envs, cfg.run.seed, 0)?;
     let mut t = Trainer::new(cfg.clone(), env, false)?;
     for _ in 0..a.warmup {
-        t.iterate()?.context("warm-up iteration")?;
+        t.iterate()?.ok_or_else(|| Error::bad_bench("warm-up iteration"))?;
     }
     let mut r = WorkerResult {
         threads,
@@ -115,7 +116,7 @@ pub fn worker(a: &Args, threads: usize) -> Result<WorkerResult> {
     };
     for _ in 0..a.iterations {
         let start = Instant::now();
-        let log = t.iterate()?.context("iteration")?;
+        let log = t.iterate()?.ok_or_else(|| Error::bad_bench("iteration"))?;
         r.iteration_s += start.elapsed().as_secs_f64();
         r.collect_s += log.collect_s;
         r.inference_s += log.inference_s;
@@ -152,7 +153,7 @@ pub fn worker(a: &Args, threads: usize) -> Result<WorkerResult> {
 }
 
 fn run_worker(a: &Args, threads: usize) -> Result<WorkerResult> {
-    let exe = std::env::current_exe()?;
+    let exe = std::env::current_exe().map_err(|e| Error::bench("locating the topa binary", e))?;
     let mut cmd = Command::new(exe);
     cmd.args(["bench", "train", "--worker", "--config"]).arg(a.config);
     cmd.args(["--threads", &threads.to_string(), "--iterations", &a.iterations.to_string()]);
