@@ -449,6 +449,29 @@ fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result
                 ));
             }
         }
+        // Every joint the loop moves through that no actuator drives must be passive: one left out gives a loop
+        // the solver cannot close as the motors move (a wrong J, where nothing checked it).
+        let found = crate::mechanism::loops(m);
+        let eqs: Vec<usize> = l.equality.get_ref().iter().filter_map(|e| m.id(ObjType::Equality, e).ok()).collect();
+        let listed: Vec<usize> = l.passive.get_ref().iter().filter_map(|p| m.id(ObjType::Joint, p).ok()).collect();
+        let missing: Vec<&str> = found
+            .iter()
+            .filter(|f| eqs.contains(&f.equality))
+            .flat_map(|f| f.passive.iter().copied())
+            .filter(|j| !listed.contains(j))
+            .map(|j| m.name_of(ObjType::Joint, j).unwrap_or("(unnamed)"))
+            .collect();
+        if !missing.is_empty() {
+            return Err(src.at(
+                l.passive.span(),
+                format!(
+                    "loop '{}': it also moves through {}, which no actuator drives: add {} to its passive list",
+                    l.name.get_ref(),
+                    missing.join(", "),
+                    if missing.len() == 1 { "it" } else { "them" }
+                ),
+            ));
+        }
     }
     Ok(())
 }

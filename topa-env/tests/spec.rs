@@ -74,6 +74,9 @@ fn broken_specs_name_the_line_and_the_fix() {
         "passive = [\"l_ankle_pitch\", \"l_knee_pitch\"]",
     );
     assert!(e.contains("driven by an actuator"), "{e}");
+    // The ankle rod left out: the loop moves through it and nothing drives it.
+    let e = broken("rodless", "passive = [\"l_ankle_pitch\", \"l_ankle_rod\"]", "passive = [\"l_ankle_pitch\"]");
+    assert!(e.contains("loop 'l_knee_ankle'") && e.contains("l_ankle_rod") && e.contains("passive list"), "{e}");
     let e = broken("group", "hip_yaw = [\"l_hip_yaw\", \"r_hip_yaw\"]", "hip_yaw = [\"l_hip_yaw\", \"r_hip_yw\"]");
     assert!(e.contains("r_hip_yw"), "{e}");
 }
