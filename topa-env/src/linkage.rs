@@ -239,39 +239,40 @@ impl Linkage {
         )))
     }
 
+    /// The constraint rows of the loops' equalities at the current configuration.
+    fn loop_rows(&self) -> Vec<usize> {
+        let d = &self.data;
+        (0..d.nefc())
+            .filter(|&i| {
+                d.efc_type(i) == ConstraintType::Equality && self.equalities.contains(&(d.efc_id()[i] as usize))
+            })
+            .collect()
+    }
+
     /// The loops' equality rows at the current configuration: violations r, the Jacobian's columns of the
-    /// passive joints (J_p) and of the motors (J_m), and each row's equality constraint.
+    /// passive joints (J_p) and of the motors (J_m), and the rows themselves (`loop_rows`).
     fn rows(&self) -> (DVector<f64>, DMatrix<f64>, DMatrix<f64>, Vec<usize>) {
         let d = &self.data;
         let nv = d.model().nv();
         let jac = d.efc_jacobian().expect("the linkage's model stores its Jacobian dense");
-        let rows: Vec<usize> = (0..d.nefc())
-            .filter(|&i| {
-                d.efc_type(i) == ConstraintType::Equality && self.equalities.contains(&(d.efc_id()[i] as usize))
-            })
-            .collect();
+        let rows = self.loop_rows();
         let r = DVector::from_iterator(rows.len(), rows.iter().map(|&i| d.efc_pos()[i]));
         let cols = |dofs: &[usize]| DMatrix::from_fn(rows.len(), dofs.len(), |i, k| jac[rows[i] * nv + dofs[k]]);
-        let eq = rows.iter().map(|&i| d.efc_id()[i] as usize).collect();
-        (r, cols(&self.passive_dof), cols(&self.motor_dof), eq)
+        (r, cols(&self.passive_dof), cols(&self.motor_dof), rows)
     }
 
-    /// The error for passive joints that cannot follow the motors: `unmatched[i]` is row i's share of the motor
-    /// motion they leave unmatched. It names each such loop and the joints its rows also move through (neither
-    /// passive nor driven nor the floating base): the candidates for its passive list.
-    fn unclosable(&self, eq: &[usize], unmatched: &[f64]) -> EnvError {
+    /// The error for passive joints that cannot follow the motors: `unmatched[i]` is the share of the motor
+    /// motion they leave unmatched in `rows[i]` (rows as `rows` returns them). It names each such loop and the
+    /// joints its rows also move through (neither passive nor driven nor the floating base): the candidates for
+    /// its passive list.
+    fn unclosable(&self, rows: &[usize], unmatched: &[f64]) -> EnvError {
         let d = &self.data;
         let m = d.model();
         let nv = m.nv();
         let jac = d.efc_jacobian().expect("the linkage's model stores its Jacobian dense");
-        let rows: Vec<usize> = (0..d.nefc())
-            .filter(|&i| {
-                d.efc_type(i) == ConstraintType::Equality && self.equalities.contains(&(d.efc_id()[i] as usize))
-            })
-            .collect();
         let mut msgs = Vec::new();
         for (name, eqs) in &self.loop_names {
-            let mine: Vec<usize> = (0..rows.len()).filter(|&i| eqs.contains(&eq[i])).collect();
+            let mine: Vec<usize> = (0..rows.len()).filter(|&i| eqs.contains(&(d.efc_id()[rows[i]] as usize))).collect();
             let worst = mine.iter().map(|&i| unmatched[i]).fold(0.0, f64::max);
             if worst <= JACOBIAN_TOL {
                 continue;
@@ -318,7 +319,7 @@ impl Linkage {
     pub fn jacobian(&mut self, motors: &[f64]) -> Result<DMatrix<f64>> {
         self.close(motors)?;
         let n = self.n_motors();
-        let (_, jp, jm, eq) = self.rows();
+        let (_, jp, jm, rows) = self.rows();
         let passive = if self.passive_dof.is_empty() {
             DMatrix::zeros(0, n)
         } else {
@@ -329,7 +330,7 @@ impl Linkage {
             let left = &jp * &passive + &jm;
             let unmatched: Vec<f64> = left.row_iter().map(|r| r.abs().max()).collect();
             if unmatched.iter().any(|&u| u > JACOBIAN_TOL) {
-                return Err(self.unclosable(&eq, &unmatched));
+                return Err(self.unclosable(&rows, &unmatched));
             }
         }
         Ok(DMatrix::from_fn(n, n, |i, k| match self.joint_is_passive[i] {

@@ -423,6 +423,7 @@ fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result
         }
     }
     let driven: Vec<usize> = (0..m.nu()).map(|a| m.actuator_trnid()[a][0] as usize).collect();
+    let found = crate::mechanism::loops(m);
     for l in &raw.loops {
         for e in l.equality.get_ref() {
             m.id(ObjType::Equality, e).map_err(|_| {
@@ -451,7 +452,6 @@ fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result
         }
         // Every joint the loop moves through that no actuator drives must be passive: one left out gives a loop
         // the solver cannot close as the motors move (a wrong J, where nothing checked it).
-        let found = crate::mechanism::loops(m);
         let eqs: Vec<usize> = l.equality.get_ref().iter().filter_map(|e| m.id(ObjType::Equality, e).ok()).collect();
         let listed: Vec<usize> = l.passive.get_ref().iter().filter_map(|p| m.id(ObjType::Joint, p).ok()).collect();
         let missing: Vec<&str> = found
