@@ -4,6 +4,7 @@
 mod cli;
 mod eval_cmd;
 mod groups_cmd;
+mod robot_cmd;
 mod sysid_cmd;
 mod train_cmd;
 
@@ -52,6 +53,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let r = topa_eval::terrain_report::run(&policies, &common.settings()?, &p)?;
             groups_cmd::report_terrain(&r, &common)
         }
+        Cmd::Robot(cmd) => robot_cmd::run(cmd),
         Cmd::Sysid(cmd) => sysid_cmd::run(cmd),
         Cmd::Field { merge, common, .. } if !merge.is_empty() => groups_cmd::merge_field(&merge, common),
         Cmd::Field { groups, course, speeds, minutes, modes, common, .. } => {

@@ -10,8 +10,17 @@ fn root() -> &'static Path {
 }
 
 /// The library crates, each a folder at the root; the command line is the root package (`src/`).
-const LIBRARIES: [&str; 8] =
-    ["mujoco-sys", "mujoco", "trainer", "topa-env", "topa-train", "topa-eval", "topa-sysid", "topa-tools"];
+const LIBRARIES: [&str; 9] = [
+    "mujoco-sys",
+    "mujoco",
+    "trainer",
+    "topa-env",
+    "topa-train",
+    "topa-eval",
+    "topa-sysid",
+    "topa-tools",
+    "topa-robot",
+];
 
 /// A crate's path dependencies (the workspace's own crates), from its manifest.
 fn own_dependencies(manifest_dir: &str) -> BTreeSet<String> {

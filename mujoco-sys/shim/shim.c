@@ -101,6 +101,9 @@ int mjs_kinematics(const mjModel* m, mjData* d, char* err, int errlen) {
 // what loop-closure solving needs.
 int mjs_fwd_position(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_fwdPosition(m, d)) }
 
+// Inverse dynamics: the generalised forces (qfrc_inverse) that give the current qacc at the current state.
+int mjs_inverse(const mjModel* m, mjData* d, char* err, int errlen) { GUARDED(mj_inverse(m, d)) }
+
 // Rendering calls that raise mju_error when no usable OpenGL context is current.
 int mjs_make_scene(const mjModel* m, mjvScene* scn, int maxgeom, char* err, int errlen) {
   GUARDED(mjv_makeScene(m, scn, maxgeom))

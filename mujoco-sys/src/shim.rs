@@ -30,6 +30,7 @@ extern "C" {
     ) -> c_int;
     pub fn mjs_kinematics(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
     pub fn mjs_fwd_position(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
+    pub fn mjs_inverse(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
     pub fn mjs_reset_data(m: *const mjModel, d: *mut mjData, err: *mut c_char, len: c_int) -> c_int;
     pub fn mjs_reset_data_keyframe(
         m: *const mjModel,

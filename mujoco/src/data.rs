@@ -98,6 +98,8 @@ data_arrays! {
     qfrc_actuator / qfrc_actuator_mut: f64, |m| m.nv;
     qfrc_constraint / qfrc_constraint_mut: f64, |m| m.nv;
     qfrc_bias / qfrc_bias_mut: f64, |m| m.nv;
+    /// What `Data::inverse` computes: the generalised forces that produce `qacc` (nv).
+    qfrc_inverse / qfrc_inverse_mut: f64, |m| m.nv;
     sensordata / sensordata_mut: f64, |m| m.nsensordata;
     xpos / xpos_mut: [f64; 3], |m| m.nbody;
     xquat / xquat_mut: [f64; 4], |m| m.nbody;
@@ -255,6 +257,24 @@ impl Data {
         // SAFETY: d was made for m; the call is guarded (a MuJoCo error returns instead of exiting).
         let r = guarded("mj_fwdPosition", |e, n| unsafe { shim::mjs_fwd_position(m, d, e, n) });
         self.check_capacity("mj_fwdPosition", r)
+    }
+
+    /// Inverse dynamics (`mj_inverse`): the generalised forces, into `qfrc_inverse`, that give the current `qacc`
+    /// at the current position and velocity, constraint forces included.
+    pub fn inverse(&mut self) -> Result<()> {
+        let (m, d) = self.parts();
+        // SAFETY: d was made for m; the call is guarded.
+        let r = guarded("mj_inverse", |e, n| unsafe { shim::mjs_inverse(m, d, e, n) });
+        self.check_capacity("mj_inverse", r)
+    }
+
+    /// The joint-space inertia matrix (nv × nv, row-major) at the last computed position.
+    pub fn full_mass_matrix(&self) -> Vec<f64> {
+        let nv = self.model.nv();
+        let mut out = vec![0.0; nv * nv];
+        // SAFETY: out holds nv × nv values; qM is d's, made for this model.
+        unsafe { ffi::mj_fullM(self.model.raw(), out.as_mut_ptr(), self.raw().qM) };
+        out
     }
 
     /// The constraint Jacobian as a dense nefc × nv row-major matrix, or `None` when the model stores it sparse

@@ -114,12 +114,17 @@ read_arrays! {
     jnt_pos: [f64; 3], njnt;
     jnt_axis: [f64; 3], njnt;
     jnt_range: [f64; 2], njnt;
+    /// Spring stiffness of each joint (0: none) and the qpos the springs pull towards.
+    jnt_stiffness: f64, njnt;
+    qpos_spring: f64, nq;
     dof_bodyid: i32, nv;
     dof_jntid: i32, nv;
     geom_bodyid: i32, ngeom;
     geom_size: [f64; 3], ngeom;
     geom_pos: [f64; 3], ngeom;
     geom_quat: [f64; 4], ngeom;
+    /// Radius of each geom's bounding sphere.
+    geom_rbound: f64, ngeom;
     site_bodyid: i32, nsite;
     site_pos: [f64; 3], nsite;
     actuator_trnid: [i32; 2], nu;
@@ -127,6 +132,8 @@ read_arrays! {
     actuator_forcelimited: u8, nu;
     actuator_ctrlrange: [f64; 2], nu;
     actuator_gear: [f64; 6], nu;
+    actuator_gaintype: i32, nu;
+    actuator_biastype: i32, nu;
     sensor_objid: i32, nsensor;
     sensor_dim: i32, nsensor;
     sensor_adr: i32, nsensor;

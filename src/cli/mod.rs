@@ -7,11 +7,13 @@ use clap::{Parser, Subcommand};
 
 mod eval;
 mod groups;
+mod robot;
 mod sysid;
 mod train;
 
 pub(crate) use eval::{Common, EvalCmd, QualityArg, TerrainArgs, VideoArgs};
 pub(crate) use groups::{Groups, Sim2SimArg};
+pub(crate) use robot::RobotCmd;
 pub(crate) use sysid::SysidCmd;
 pub(crate) use train::TrainArgs;
 
@@ -37,6 +39,9 @@ pub(crate) enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// A robot from its published MJCF: import it, solve its stand pose.
+    #[command(subcommand)]
+    Robot(RobotCmd),
     /// System identification: excitation trajectories for the motors.
     #[command(subcommand)]
     Sysid(SysidCmd),

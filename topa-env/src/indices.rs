@@ -45,6 +45,9 @@ pub struct RobotIndices {
     /// Per motor: the driven joint's and the kinematic joint's position in the stand keyframe.
     pub nominal_actuated: Vec<f64>,
     pub nominal_joints: Vec<f64>,
+    /// Per motor: the PD target of a zero action, the driven joint's nominal position plus the spec's
+    /// feed-forward torque over the actuator's kp (= the nominal position where there is none).
+    pub action_zero: Vec<f64>,
     /// The left↔right mirror of motor-indexed vectors (`out[i] = sign[i] · in[perm[i]]`).
     pub mirror_perm: Vec<usize>,
     pub mirror_sign: Vec<f32>,
@@ -85,6 +88,7 @@ impl RobotIndices {
             joint_range: spec.motors.iter().map(|m| m.joint_range).collect(),
             nominal_actuated: Vec::new(),
             nominal_joints: spec.nominal_joints(),
+            action_zero: Vec::new(),
             mirror_perm: Vec::new(),
             mirror_sign: Vec::new(),
             deviation_groups: DEVIATION_GROUPS.map(|g| spec.group(g).to_vec()),
@@ -110,6 +114,17 @@ impl RobotIndices {
         }
         let key_qpos = model.key_qpos(idx.stand_key);
         idx.nominal_actuated = idx.actuated_qpos.iter().map(|&a| key_qpos[a]).collect();
+        idx.action_zero = (0..idx.n_motors)
+            .map(|i| {
+                let ff = spec.motors[i].feedforward;
+                let q = idx.nominal_actuated[i];
+                if ff == 0.0 {
+                    q
+                } else {
+                    q + ff / model.actuator_gainprm()[idx.actuators[i]][0]
+                }
+            })
+            .collect();
         (idx.mirror_perm, idx.mirror_sign) = spec.mirror_map();
         Ok(idx)
     }

@@ -2,7 +2,7 @@
 //! typed in: positions by solving the loop closure (Gauss–Newton on the loops' passive joints), velocities by the
 //! closure's Jacobian J = ∂q_joint/∂q_motor, torques by virtual work, τ_motor = Jᵀ τ_joint. Nonlinear linkages
 //! (four-bar knees, two-rod ankles) work the same as TopA's linear one; a loop's passive joints may be hinges,
-//! slides or ball joints (Cassie's achilles rods). A passive set that cannot follow the motors (a joint of the loop
+//! slides or ball joints (Cassie's achilles rods); its springs stay at their keyframe (rest) angle. A passive set that cannot follow the motors (a joint of the loop
 //! left out) is an error naming the loop and the joints it also moves through, never a least-squares J.
 
 use std::sync::Arc;
@@ -32,6 +32,8 @@ pub struct Linkage {
     /// Passive joints of all loops, and their dofs in that order (a ball joint has three).
     passive: Vec<Passive>,
     passive_dof: Vec<usize>,
+    /// Dofs of the loops' springs: held at the keyframe's angle (their rest), not solved for.
+    spring_dof: Vec<usize>,
     /// For each motor, the passive dof that is its kinematic joint (None: the motor drives it directly).
     joint_is_passive: Vec<Option<usize>>,
     equalities: Vec<usize>,
@@ -90,8 +92,17 @@ fn rotate_local(q: &mut [f64], omega: [f64; 3]) {
 }
 
 impl Linkage {
-    /// The maps of `spec` on `model` (its own copy, with a dense constraint Jacobian).
+    /// The maps of `spec` on `model` (its own copy, with a dense constraint Jacobian); its stand keyframe must
+    /// close the loops.
     pub fn new(spec: &RobotSpec, model: &Model) -> Result<Self> {
+        let mut linkage = Linkage::unchecked(spec, model)?;
+        let key_qpos = model.key_qpos(linkage.key).to_vec();
+        linkage.check_keyframe(spec, &key_qpos)?;
+        Ok(linkage)
+    }
+
+    /// The maps of a spec whose stand keyframe need not close the loops yet (what solves that keyframe).
+    pub fn unchecked(spec: &RobotSpec, model: &Model) -> Result<Self> {
         let mut m = model.try_clone()?;
         m.set_dense_jacobian();
         let m = Arc::new(m);
@@ -105,6 +116,12 @@ impl Linkage {
             passive.push(Passive { qpos: m.jnt_qposadr_of(j), dof: m.jnt_dofadr_of(j), ball });
         }
         let passive_dof: Vec<usize> = passive.iter().flat_map(|p| p.dof..p.dof + p.nv()).collect();
+        let spring_dof = spec
+            .loops
+            .iter()
+            .flat_map(|l| &l.springs)
+            .map(|p| Ok(m.jnt_dofadr_of(m.id(ObjType::Joint, p)?)))
+            .collect::<Result<Vec<usize>>>()?;
         let joint_is_passive = (0..spec.motors.len())
             .map(|i| {
                 if motor_qpos[i] == joint_qpos[i] {
@@ -127,14 +144,13 @@ impl Linkage {
             }
         }
         let key = idx.stand_key;
-        let key_qpos = m.key_qpos(key).to_vec();
         let equality = |name: &String| m.id(ObjType::Equality, name);
         let loop_names = spec
             .loops
             .iter()
             .map(|l| Ok((l.name.clone(), l.equality.iter().map(equality).collect::<mujoco::Result<Vec<_>>>()?)))
             .collect::<Result<Vec<_>>>()?;
-        let mut linkage = Linkage {
+        Ok(Linkage {
             data: Data::new(m)?,
             key,
             motor_qpos,
@@ -142,14 +158,13 @@ impl Linkage {
             joint_qpos,
             passive,
             passive_dof,
+            spring_dof,
             joint_is_passive,
             equalities: idx.loops,
             loop_names,
             spec_path: spec.path.display().to_string(),
             nominal_motors: idx.nominal_actuated,
-        };
-        linkage.check_keyframe(spec, &key_qpos)?;
-        Ok(linkage)
+        })
     }
 
     /// The stand keyframe must already close the loops: the env starts every episode from it.
@@ -167,7 +182,7 @@ impl Linkage {
             let worst = closed.map(|q| addresses.iter().map(|&a| (q[a] - key_qpos[a]).abs()).fold(0.0, f64::max));
             return Err(EnvError::Config(format!(
                 "{}: keyframe '{}' does not close the loops (constraint residual {residual:.2e}{}): solve it with \
-                 `cargo run -p topa-env --example solve_stand -- {}` and put that qpos in the MJCF",
+                 `topa robot stand {}`",
                 spec.path.display(),
                 spec.stand_keyframe,
                 worst.map_or(String::new(), |w| format!(", passive joints off by up to {w:.2e} rad")),
@@ -280,7 +295,8 @@ impl Linkage {
             let mut also: Vec<&str> = Vec::new();
             for dof in 0..nv {
                 let joint = m.dof_jntid()[dof] as usize;
-                let known = self.passive_dof.contains(&dof) || self.motor_dof.contains(&dof);
+                let known =
+                    self.passive_dof.contains(&dof) || self.motor_dof.contains(&dof) || self.spring_dof.contains(&dof);
                 let moves = mine.iter().any(|&i| jac[rows[i] * nv + dof].abs() > 1e-9);
                 if moves && !known && m.jnt_type(joint) != JointType::Free {
                     let n = m.name_of(ObjType::Joint, joint).unwrap_or("(unnamed)");

@@ -34,6 +34,7 @@ pub struct PolicyRunner {
     training: crate::EnvConfig,
     /// The robot's motor positions in its stand keyframe (what actions are offsets from).
     nominal_motors: Vec<f64>,
+    action_zero: Vec<f64>,
     obs_buf: Vec<f32>,
     act_buf: Vec<f32>,
 }
@@ -94,7 +95,8 @@ impl PolicyRunner {
             None
         };
         let robot = Arc::new(robot);
-        let nominal_motors = RobotIndices::resolve(&model, &robot)?.nominal_actuated;
+        let idx = RobotIndices::resolve(&model, &robot)?;
+        let (nominal_motors, action_zero) = (idx.nominal_actuated, idx.action_zero);
         Ok(PolicyRunner {
             policy,
             name: name.to_string(),
@@ -104,6 +106,7 @@ impl PolicyRunner {
             layout,
             training: trained,
             nominal_motors,
+            action_zero,
             obs_buf: Vec::new(),
             act_buf: Vec::new(),
         })
@@ -137,6 +140,11 @@ impl PolicyRunner {
     /// The robot's motor positions in its stand pose, rad.
     pub fn nominal_motors(&self) -> &[f64] {
         &self.nominal_motors
+    }
+
+    /// The motor targets of a zero action, rad: the stand pose plus the spec's feed-forward over each kp.
+    pub fn action_zero(&self) -> &[f64] {
+        &self.action_zero
     }
 
     /// Actions (the robot's motor space) for the robot's observations, row by row.

@@ -64,6 +64,8 @@ struct RawMotor {
     torque_limit: Spanned<f64>,
     mirror: Spanned<String>,
     mirror_sign: Spanned<f64>,
+    #[serde(default)]
+    feedforward: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -72,6 +74,8 @@ struct RawLoop {
     name: Spanned<String>,
     equality: Spanned<Vec<String>>,
     passive: Spanned<Vec<String>>,
+    #[serde(default)]
+    springs: Option<Spanned<Vec<String>>>,
 }
 
 /// One foot: its body, the geom that touches the ground, the site at the sole's centre.
@@ -102,15 +106,20 @@ pub struct Motor {
     /// (its driven joint's angle: a pitch-axis crank keeps its sign even where its kinematic joint is a roll).
     pub mirror: usize,
     pub mirror_sign: f64,
+    /// Torque the motor adds in the stand pose, N·m (gravity compensation from inverse dynamics; 0 for none):
+    /// the action's zero is the PD target that produces it at the nominal pose.
+    pub feedforward: f64,
 }
 
-/// A closed kinematic loop: the equality constraints that close it and its passive joints (the ones the motors
-/// position through the linkage).
+/// A closed kinematic loop: the equality constraints that close it, its passive joints (the ones the motors
+/// position through the linkage) and its springs (compliant joints, such as Cassie's shin and heel leaf springs,
+/// which the linkage holds at their rest angle and the simulation lets flex).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Loop {
     pub name: String,
     pub equality: Vec<String>,
     pub passive: Vec<String>,
+    pub springs: Vec<String>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -246,6 +255,7 @@ fn resolve(raw: &Raw, src: &Source, path: &Path, mjcf: PathBuf) -> Result<RobotS
             torque_limit: *m.torque_limit.get_ref(),
             mirror,
             mirror_sign: s,
+            feedforward: m.feedforward.as_ref().map_or(0.0, |f| *f.get_ref()),
         });
     }
     for (i, m) in motors.iter().enumerate() {
@@ -280,6 +290,7 @@ fn resolve(raw: &Raw, src: &Source, path: &Path, mjcf: PathBuf) -> Result<RobotS
             name: l.name.get_ref().clone(),
             equality: l.equality.get_ref().clone(),
             passive: l.passive.get_ref().clone(),
+            springs: l.springs.as_ref().map_or_else(Vec::new, |s| s.get_ref().clone()),
         })
         .collect();
     let foot = |f: &RawFoot| Foot {
@@ -422,6 +433,8 @@ fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result
             ));
         }
     }
+    check_mirror_geometry(spec, raw, src, m, key)?;
+    check_feedforward(spec, raw, src, m)?;
     let driven: Vec<usize> = (0..m.nu()).map(|a| m.actuator_trnid()[a][0] as usize).collect();
     let found = crate::mechanism::loops(m);
     for l in &raw.loops {
@@ -450,25 +463,120 @@ fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result
                 ));
             }
         }
-        // Every joint the loop moves through that no actuator drives must be passive: one left out gives a loop
-        // the solver cannot close as the motors move (a wrong J, where nothing checked it).
+        let mut listed: Vec<usize> = l.passive.get_ref().iter().filter_map(|p| m.id(ObjType::Joint, p).ok()).collect();
+        if let Some(springs) = &l.springs {
+            for p in springs.get_ref() {
+                let j = m.id(ObjType::Joint, p).map_err(|_| {
+                    src.at(springs.span(), format!("loop '{}': joint '{p}' is not in {mjcf}", l.name.get_ref()))
+                })?;
+                if !(m.jnt_stiffness()[j] > 0.0) || driven.contains(&j) || listed.contains(&j) {
+                    return Err(src.at(
+                        springs.span(),
+                        format!(
+                            "loop '{}': spring '{p}' must be a joint with a stiffness in {mjcf}, no actuator's and \
+                             not also passive",
+                            l.name.get_ref()
+                        ),
+                    ));
+                }
+                listed.push(j);
+            }
+        }
+        // Every joint the loop moves through that no actuator drives must be passive or a spring: one left out
+        // gives a loop the solver cannot close as the motors move (a wrong J, where nothing checked it).
         let eqs: Vec<usize> = l.equality.get_ref().iter().filter_map(|e| m.id(ObjType::Equality, e).ok()).collect();
-        let listed: Vec<usize> = l.passive.get_ref().iter().filter_map(|p| m.id(ObjType::Joint, p).ok()).collect();
-        let missing: Vec<&str> = found
-            .iter()
-            .filter(|f| eqs.contains(&f.equality))
-            .flat_map(|f| f.passive.iter().copied())
-            .filter(|j| !listed.contains(j))
-            .map(|j| m.name_of(ObjType::Joint, j).unwrap_or("(unnamed)"))
-            .collect();
-        if !missing.is_empty() {
+        let in_loop = |f: &&crate::mechanism::ClosedLoop| eqs.contains(&f.equality);
+        for (kind, list) in [("passive", 0), ("springs", 1)] {
+            let missing: Vec<&str> = found
+                .iter()
+                .filter(in_loop)
+                .flat_map(|f| if list == 0 { f.passive.clone() } else { f.springs.clone() })
+                .filter(|j| !listed.contains(j))
+                .map(|j| m.name_of(ObjType::Joint, j).unwrap_or("(unnamed)"))
+                .collect();
+            if !missing.is_empty() {
+                let what = if list == 0 { "no actuator drives" } else { "a spring (stiffness) moves" };
+                return Err(src.at(
+                    l.passive.span(),
+                    format!(
+                        "loop '{}': it also moves through {}, which {what}: add {} to its {kind} list",
+                        l.name.get_ref(),
+                        missing.join(", "),
+                        if missing.len() == 1 { "it" } else { "them" }
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Each motor's mirror sign agrees with the geometry of the stand pose: the mirrored motor's joint axis is this
+/// one's reflected through the base's sagittal plane (sign +1) or its reverse (−1).
+fn check_mirror_geometry(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model, key: usize) -> Result<(), SpecError> {
+    let at_key = |e: mujoco::MujocoError| src.at(raw.stand_keyframe.span(), format!("posing the stand keyframe: {e}"));
+    let base = m.id(ObjType::Body, &spec.base_body).map_err(at_key)?;
+    let posed = crate::mechanism::Posed::new(m, m.key_qpos(key), base).map_err(at_key)?;
+    for (mm, r) in spec.motors.iter().zip(raw.motors.get_ref()) {
+        let other = &spec.motors[mm.mirror];
+        let (Ok(a), Ok(b)) = (m.id(ObjType::Joint, &mm.drives), m.id(ObjType::Joint, &other.drives)) else {
+            continue;
+        };
+        match posed.mirror_sign(a, b) {
+            Some(s) if s == mm.mirror_sign => {}
+            Some(s) => {
+                return Err(src.at(
+                    r.mirror_sign.span(),
+                    format!(
+                        "mirror_sign {} disagrees with the geometry: in keyframe '{}' the axis of '{}' is that of \
+                         '{}' mirrored{}, so the sign is {s}",
+                        mm.mirror_sign,
+                        spec.stand_keyframe,
+                        other.drives,
+                        mm.drives,
+                        if s < 0.0 { " and reversed" } else { "" }
+                    ),
+                ))
+            }
+            None => {
+                return Err(src.at(
+                    r.mirror.span(),
+                    format!(
+                        "'{}' and '{}' are not a mirror pair: in keyframe '{}' their axes are not mirror images \
+                         through the sagittal plane of '{}'",
+                        mm.drives, other.drives, spec.stand_keyframe, spec.base_body
+                    ),
+                ))
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A feed-forward torque becomes a PD target offset, so its actuator must be a PD one (gain kp > 0 and bias
+/// −kp·q); mirrored motors carry mirrored torques.
+fn check_feedforward(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result<(), SpecError> {
+    for (i, (mm, r)) in spec.motors.iter().zip(raw.motors.get_ref()).enumerate() {
+        let Some(ff) = &r.feedforward else { continue };
+        let (kp, bias) = (m.actuator_gainprm()[i][0], m.actuator_biasprm()[i][1]);
+        if !mm.feedforward.is_finite() || !(kp > 0.0) || (bias + kp).abs() > TOL * kp.max(1.0) {
             return Err(src.at(
-                l.passive.span(),
+                ff.span(),
                 format!(
-                    "loop '{}': it also moves through {}, which no actuator drives: add {} to its passive list",
-                    l.name.get_ref(),
-                    missing.join(", "),
-                    if missing.len() == 1 { "it" } else { "them" }
+                    "feedforward needs a finite torque on a PD actuator (gainprm kp > 0, biasprm '0 -kp -kd'): '{}' \
+                     has kp {kp} and bias {bias}",
+                    mm.actuator
+                ),
+            ));
+        }
+        let other = &spec.motors[mm.mirror];
+        if (mm.feedforward - mm.mirror_sign * other.feedforward).abs() > 1e-6 * mm.feedforward.abs().max(1.0) {
+            return Err(src.at(
+                ff.span(),
+                format!(
+                    "feedforward {} of '{}' is not the mirror of '{}''s {} (sign {}): solve both with `topa robot \
+                     stand`",
+                    mm.feedforward, mm.actuator, other.actuator, other.feedforward, mm.mirror_sign
                 ),
             ));
         }

@@ -107,7 +107,7 @@ fn a_keyframe_that_does_not_close_the_loops_is_refused_with_the_fix() {
     };
     let Err(e) = Linkage::new(&spec, &model) else { panic!("an open keyframe was accepted") };
     let e = e.to_string();
-    assert!(e.contains("does not close the loops") && e.contains("solve_stand"), "{e}");
+    assert!(e.contains("does not close the loops") && e.contains("topa robot stand"), "{e}");
     std::fs::remove_dir_all(dir).ok();
 }
 

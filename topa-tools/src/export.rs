@@ -7,7 +7,8 @@
 //! * output `action`: float32 `[batch, n]`, the policy's mean action in motor space (motor target offsets in units
 //!   of `action_scale` rad);
 //! * with `--motor-targets`, output `motor_targets`: float32 `[batch, n]`, what the motors receive:
-//!   `clamp(nominal + action_scale · clip(action, ±action_clip), motor range)`, in rad.
+//!   `clamp(action_zero + action_scale · clip(action, ±action_clip), motor range)`, in rad (`action_zero`: the
+//!   stand pose plus any feed-forward torque over kp).
 //!
 //! Everything robot-specific comes from the robot's spec and MJCF (through `PolicyRunner`): the
 //! layout, the motor order, the stand pose and the ranges. A policy trained on a simplified model (TopA's serial
@@ -178,12 +179,13 @@ pub fn build(runner: &PolicyRunner, source: &str, motor_targets: bool) -> Result
         inits.push(tensor("action_min", &[], vec![-clip]));
         inits.push(tensor("action_max", &[], vec![clip]));
         inits.push(tensor("action_scale", &[], vec![m.action_scale as f32]));
-        inits.push(tensor("nominal_motor_positions", &[n], nominal.iter().map(|&v| v as f32).collect()));
+        let zero = runner.action_zero();
+        inits.push(tensor("action_zero_motor_positions", &[n], zero.iter().map(|&v| v as f32).collect()));
         inits.push(tensor("motor_min", &[n], robot.motors.iter().map(|mo| mo.motor_range[0] as f32).collect()));
         inits.push(tensor("motor_max", &[n], robot.motors.iter().map(|mo| mo.motor_range[1] as f32).collect()));
         nodes.push(node("Clip", &[OUTPUT, "action_min", "action_max"], "action_clipped", vec![]));
         nodes.push(node("Mul", &["action_clipped", "action_scale"], "target_offset", vec![]));
-        nodes.push(node("Add", &["target_offset", "nominal_motor_positions"], "target_raw", vec![]));
+        nodes.push(node("Add", &["target_offset", "action_zero_motor_positions"], "target_raw", vec![]));
         nodes.push(node("Max", &["target_raw", "motor_min"], "target_low", vec![]));
         nodes.push(node("Min", &["target_low", "motor_max"], TARGETS, vec![]));
         outputs.push(value_info(TARGETS, n));
@@ -199,6 +201,7 @@ pub fn build(runner: &PolicyRunner, source: &str, motor_targets: bool) -> Result
         ("observation_layout", serde_json::Value::Array(layout).to_string()),
         ("motor_order", serde_json::to_string(&robot.motors.iter().map(|mo| &mo.actuator).collect::<Vec<_>>())?),
         ("nominal_motor_positions_rad", serde_json::to_string(nominal)?),
+        ("action_zero_motor_positions_rad", serde_json::to_string(runner.action_zero())?),
         ("action_scale_rad", m.action_scale.to_string()),
         ("action_clip", m.action_clip.to_string()),
         ("control_period_s", m.policy_dt.to_string()),

@@ -40,6 +40,8 @@ pub struct MotorSummary {
     pub torque_limit: f64,
     pub mirror: String,
     pub mirror_sign: f64,
+    /// Torque held in the stand pose (gravity feed-forward), N·m.
+    pub feedforward: f64,
 }
 
 #[derive(Debug, Serialize)]
@@ -47,6 +49,7 @@ pub struct LoopSummary {
     pub name: String,
     pub equality: Vec<String>,
     pub passive: Vec<String>,
+    pub springs: Vec<String>,
 }
 
 #[derive(Debug, Serialize)]
@@ -93,6 +96,7 @@ pub fn summarize(path: &Path) -> Result<RobotSummary> {
             torque_limit: m.torque_limit,
             mirror: name_of(m.mirror),
             mirror_sign: m.mirror_sign,
+            feedforward: m.feedforward,
         })
         .collect();
     Ok(RobotSummary {
@@ -109,7 +113,12 @@ pub fn summarize(path: &Path) -> Result<RobotSummary> {
         loops: spec
             .loops
             .iter()
-            .map(|l| LoopSummary { name: l.name.clone(), equality: l.equality.clone(), passive: l.passive.clone() })
+            .map(|l| LoopSummary {
+                name: l.name.clone(),
+                equality: l.equality.clone(),
+                passive: l.passive.clone(),
+                springs: l.springs.clone(),
+            })
             .collect(),
         map: MapSummary {
             kind: kind.into(),
@@ -151,11 +160,21 @@ pub fn print_text(s: &RobotSummary) {
             m.mirror
         );
     }
+    if s.motors.iter().any(|m| m.feedforward != 0.0) {
+        let ff: Vec<String> = s.motors.iter().map(|m| format!("{:.2}", m.feedforward)).collect();
+        println!("feedforward {} N·m (stand pose, motor order)", ff.join(" "));
+    }
     for (g, names) in &s.groups {
         println!("group       {g}: {}", names.join(", "));
     }
     for l in &s.loops {
-        println!("loop        {}: closed by {}; passive {}", l.name, l.equality.join(", "), l.passive.join(", "));
+        let springs = if l.springs.is_empty() { String::new() } else { format!("; springs {}", l.springs.join(", ")) };
+        println!(
+            "loop        {}: closed by {}; passive {}{springs}",
+            l.name,
+            l.equality.join(", "),
+            l.passive.join(", ")
+        );
     }
     println!(
         "map         motor → joint: {} (J varies by up to {:.2e} within ±0.3 rad of the stand pose)",

@@ -452,7 +452,7 @@ impl Task for RobotEnv {
         }
         for i in 0..n {
             let [lo, hi] = self.idx.motor_range[i];
-            self.target[i] = (self.idx.nominal_actuated[i] + self.cfg.action_scale * self.action[i]).clamp(lo, hi);
+            self.target[i] = (self.idx.action_zero[i] + self.cfg.action_scale * self.action[i]).clamp(lo, hi);
         }
         match &mut self.sim2sim {
             Some(s) => s.set_target(&self.target),
