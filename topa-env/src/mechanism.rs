@@ -56,7 +56,7 @@ pub fn loops(model: &Model) -> Vec<ClosedLoop> {
 }
 
 /// `body` and its ancestors up to the world (body 0), nearest first.
-fn ancestors(model: &Model, body: usize) -> Vec<usize> {
+pub fn ancestors(model: &Model, body: usize) -> Vec<usize> {
     let mut chain = vec![body];
     let mut b = body;
     while b != 0 {

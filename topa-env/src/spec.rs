@@ -469,7 +469,7 @@ fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result
                 let j = m.id(ObjType::Joint, p).map_err(|_| {
                     src.at(springs.span(), format!("loop '{}': joint '{p}' is not in {mjcf}", l.name.get_ref()))
                 })?;
-                if !(m.jnt_stiffness()[j] > 0.0) || driven.contains(&j) || listed.contains(&j) {
+                if m.jnt_stiffness()[j] <= 0.0 || driven.contains(&j) || listed.contains(&j) {
                     return Err(src.at(
                         springs.span(),
                         format!(
@@ -559,7 +559,7 @@ fn check_feedforward(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Re
     for (i, (mm, r)) in spec.motors.iter().zip(raw.motors.get_ref()).enumerate() {
         let Some(ff) = &r.feedforward else { continue };
         let (kp, bias) = (m.actuator_gainprm()[i][0], m.actuator_biasprm()[i][1]);
-        if !mm.feedforward.is_finite() || !(kp > 0.0) || (bias + kp).abs() > TOL * kp.max(1.0) {
+        if !mm.feedforward.is_finite() || kp.is_nan() || kp <= 0.0 || (bias + kp).abs() > TOL * kp.max(1.0) {
             return Err(src.at(
                 ff.span(),
                 format!(

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use mujoco::{Data, JointType, Model, ObjType, Transmission};
-use topa_env::mechanism::{self, Posed};
+use topa_env::mechanism::{self, ancestors, Posed};
 
 use crate::error::{Error, Result};
 use crate::geometry::{in_body_frame, lowest_point};
@@ -105,22 +105,12 @@ pub fn draft(m: &Model, path: &Path) -> Result<Draft> {
     let z = q[b + 2];
     q[b..b + 7].copy_from_slice(&[0.0, 0.0, z, 1.0, 0.0, 0.0, 0.0]);
 
-    let motors = motors(m, path)?;
+    let mut motors = motors(m, path)?;
     let joints: Vec<usize> = (0..m.nu()).map(|a| m.actuator_trnid()[a][0] as usize).collect();
     let posed = Posed::new(m, &q, base)?;
-    let mirrors = mirrors(m, &posed, &joints);
-    let mut motors: Vec<DraftMotor> = motors
-        .into_iter()
-        .zip(mirrors)
-        .map(|((actuator, joint, range, torque_limit), mirror)| DraftMotor {
-            actuator,
-            joint,
-            range,
-            torque_limit,
-            mirror,
-            kinematic: None,
-        })
-        .collect();
+    for (mo, mirror) in motors.iter_mut().zip(mirrors(m, &posed, &joints)) {
+        mo.mirror = mirror;
+    }
     // The stand pose symmetric: each pair at the mean of the two sides.
     for i in 0..motors.len() {
         if let Ok((k, s)) = motors[i].mirror {
@@ -163,8 +153,8 @@ pub fn draft(m: &Model, path: &Path) -> Result<Draft> {
     })
 }
 
-/// Each actuator: its name, its joint, the joint's range and the torque limit.
-fn motors(m: &Model, path: &Path) -> Result<Vec<(String, String, [f64; 2], f64)>> {
+/// Each actuator: its name, its joint, the joint's range and the torque limit (the mirror still to find).
+fn motors(m: &Model, path: &Path) -> Result<Vec<DraftMotor>> {
     let mut out = Vec::new();
     for a in 0..m.nu() {
         let actuator = name(m, ObjType::Actuator, a, path)?;
@@ -212,7 +202,14 @@ fn motors(m: &Model, path: &Path) -> Result<Vec<(String, String, [f64; 2], f64)>
                 ),
             ));
         }
-        out.push((actuator, joint, m.jnt_range()[j], limit));
+        out.push(DraftMotor {
+            actuator,
+            joint,
+            range: m.jnt_range()[j],
+            torque_limit: limit,
+            mirror: Err(String::new()),
+            kinematic: None,
+        });
     }
     if out.is_empty() {
         return Err(Error::model(path, "no actuators: a robot needs its motors as <actuator> elements"));
@@ -248,17 +245,6 @@ fn mirrors(m: &Model, posed: &Posed, joints: &[usize]) -> Vec<std::result::Resul
             }
         })
         .collect()
-}
-
-/// `body` and its ancestors up to the world, nearest first.
-fn ancestors(m: &Model, body: usize) -> Vec<usize> {
-    let mut chain = vec![body];
-    let mut b = body;
-    while b != 0 {
-        b = m.body_parentid()[b] as usize;
-        chain.push(b);
-    }
-    chain
 }
 
 /// The foot on each side of the sagittal plane: the collision geom that reaches lowest (left first).

@@ -150,7 +150,7 @@ fn feedforward(spec: &RobotSpec, model: &Model) -> Result<(Vec<f64>, f64, f64, b
     let mut kp = Vec::with_capacity(n);
     for i in 0..n {
         let (g, b) = (model.actuator_gainprm()[idx.actuators[i]][0], model.actuator_biasprm()[idx.actuators[i]][1]);
-        if !(g > 0.0) || (b + g).abs() > 1e-9 * g {
+        if g.is_nan() || g <= 0.0 || (b + g).abs() > 1e-9 * g {
             return Err(Error::model(
                 &spec.mjcf,
                 format!("actuator '{}' is not a PD loop (gainprm kp, biasprm '0 -kp -kd')", spec.motors[i].actuator),

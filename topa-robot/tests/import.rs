@@ -148,6 +148,12 @@ fn edits_that_break_the_mechanism_or_the_mirror_are_load_errors() {
     // A spring left out is named too.
     let e = load_with(&text.replace("springs = [\"left-heel-spring\", \"left-shin\"]", "springs = [\"left-shin\"]"));
     assert!(e.contains("left-heel-spring") && e.contains("springs list"), "{e}");
+    // A joint with no stiffness is no spring.
+    let e = load_with(&text.replace(
+        "springs = [\"left-heel-spring\", \"left-shin\"]",
+        "springs = [\"left-heel-spring\", \"left-shin\", \"left-knee\"]",
+    ));
+    assert!(e.contains("spring 'left-knee' must be a joint with a stiffness"), "{e}");
     // A mirror sign against the geometry (hip yaw, at 0 in the stand pose, so only the geometry can tell): the
     // mirror reverses a yaw axis.
     let flipped = ["left", "right"].iter().fold(text.clone(), |t, side| {
