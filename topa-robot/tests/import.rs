@@ -93,6 +93,11 @@ fn cassie_imports_unmodified_and_loads_as_a_robot() {
     let knee = m("left-knee").feedforward;
     assert!(knee > 10.0 && knee == m("right-knee").feedforward, "{knee}");
     assert_eq!(m("left-hip-roll").feedforward, -m("right-hip-roll").feedforward);
+    // The action's zero is the PD target that produces the feed-forward at the stand pose.
+    let idx = topa_env::RobotIndices::resolve(&model, &std::sync::Arc::new(spec.clone())).unwrap();
+    let k = spec.motors.iter().position(|m| m.actuator == "left-knee").unwrap();
+    let kp = model.actuator_gainprm()[idx.actuators[k]][0];
+    assert!((kp * (idx.action_zero[k] - idx.nominal_actuated[k]) - knee).abs() < 1e-9);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
