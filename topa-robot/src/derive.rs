@@ -246,6 +246,20 @@ pub fn derive(root: &mut Element, add: &Additions) -> (String, String, String) {
     (floor, imu_site, imu_acc)
 }
 
+/// Whether the document itself (not a file it includes) has a keyframe `name`.
+pub fn has_keyframe(root: &Element, name: &str) -> bool {
+    let mut keys = Vec::new();
+    all(root, "key", &mut keys);
+    keys.iter().any(|k| k.attributes.get("name").is_some_and(|n| n == name))
+}
+
+/// Whether the document includes other files.
+pub fn has_includes(root: &Element) -> bool {
+    let mut includes = Vec::new();
+    all(root, "include", &mut includes);
+    !includes.is_empty()
+}
+
 /// Sets (or adds) the keyframe `stand` to `qpos`.
 pub fn set_keyframe(root: &mut Element, qpos: &[f64]) {
     set_keyframe_named(root, STAND, qpos);

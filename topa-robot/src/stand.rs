@@ -62,8 +62,23 @@ pub fn stand(spec_path: &Path) -> Result<StandReport> {
         .fold(f64::INFINITY, f64::min);
     qpos[base_q + 2] -= lowest;
     let mut root = crate::xml::parse(&spec.mjcf)?;
+    if !crate::derive::has_keyframe(&root, &spec.stand_keyframe) && crate::derive::has_includes(&root) {
+        let numbers: Vec<String> = qpos.iter().map(|x| format!("{x}")).collect();
+        return Err(Error::model(
+            &spec.mjcf,
+            format!(
+                "keyframe '{}' is in a file this one includes, which `topa robot stand` does not rewrite: set its \
+                 qpos there to {}",
+                spec.stand_keyframe,
+                numbers.join(" ")
+            ),
+        ));
+    }
     crate::derive::set_keyframe_named(&mut root, &spec.stand_keyframe, &qpos);
-    trainer::tensorfile::write_atomic(&spec.mjcf, crate::xml::write(&root).as_bytes())?;
+    let text = crate::xml::write(&root);
+    // Written only once it compiles: a user's model is never replaced by one that does not load.
+    Model::from_xml_string(&text, spec.mjcf.parent().unwrap_or(Path::new(".")))?;
+    trainer::tensorfile::write_atomic(&spec.mjcf, text.as_bytes())?;
 
     // The height target is the new keyframe's (what the base-height reward and the video camera scale by).
     write_spec(spec_path, None, Some(qpos[base_q + 2]))?;
@@ -81,18 +96,41 @@ pub fn stand(spec_path: &Path) -> Result<StandReport> {
     })
 }
 
-/// A base harness: springs on the base's horizontal place and its tilt and heading, none on its height.
+/// A base harness: springs on the base's horizontal place, tilt and heading, none on its height. Linear: ω = 20 rad/s
+/// on the robot's mass; angular: 20 m·g·h per rad (h the stand height), damped a tenth of that per rad/s. Each dof's
+/// gains are capped where an explicit force held over one step would go unstable on that dof's own inertia (a yaw
+/// dof has little): k ≤ M·(0.2/dt)², c ≤ M·0.4/dt.
 struct Harness {
     dof: usize,
     qpos: usize,
-    target: [f64; 3],
-    k: f64,
-    c: f64,
-    k_rot: f64,
-    c_rot: f64,
+    target: [f64; 2],
+    k: [f64; 6],
+    c: [f64; 6],
 }
 
 impl Harness {
+    fn new(d: &mut Data, idx: &RobotIndices) -> Result<Harness> {
+        d.reset_keyframe(idx.stand_key)?;
+        d.forward()?;
+        let m = d.model();
+        let (nv, dof, dt) = (m.nv(), idx.base_dof, m.timestep());
+        let mass = m.total_mass();
+        let weight_height = mass * m.gravity()[2].abs().max(1.0) * idx.spec.base_height_target.max(0.1);
+        let inertia = d.full_mass_matrix();
+        let wanted_k =
+            [400.0 * mass, 400.0 * mass, 0.0, 20.0 * weight_height, 20.0 * weight_height, 20.0 * weight_height];
+        let wanted_c = [40.0 * mass, 40.0 * mass, 0.0, 2.0 * weight_height, 2.0 * weight_height, 2.0 * weight_height];
+        let own = |k: usize| inertia[(dof + k) * nv + dof + k];
+        let q = d.qpos();
+        Ok(Harness {
+            dof,
+            qpos: idx.base_qpos,
+            target: [q[idx.base_qpos], q[idx.base_qpos + 1]],
+            k: std::array::from_fn(|k| wanted_k[k].min(own(k) * (0.2 / dt).powi(2))),
+            c: std::array::from_fn(|k| wanted_c[k].min(own(k) * 0.4 / dt)),
+        })
+    }
+
     fn apply(&self, d: &mut Data, on: bool) {
         let q = d.qpos()[self.qpos..self.qpos + 7].to_vec();
         let v = d.qvel()[self.dof..self.dof + 6].to_vec();
@@ -102,12 +140,12 @@ impl Harness {
             return;
         }
         for k in 0..2 {
-            f[self.dof + k] = -self.k * (q[k] - self.target[k]) - self.c * v[k];
+            f[self.dof + k] = -self.k[k] * (q[k] - self.target[k]) - self.c[k] * v[k];
         }
         // Small-angle tilt and heading from the quaternion (w, x, y, z): 2·(x, y, z)·sign(w).
         let s = if q[3] < 0.0 { -2.0 } else { 2.0 };
-        for k in 0..3 {
-            f[self.dof + 3 + k] = -self.k_rot * s * q[4 + k] - self.c_rot * v[3 + k];
+        for k in 3..6 {
+            f[self.dof + k] = -self.k[k] * s * q[1 + k] - self.c[k] * v[k];
         }
     }
 }
@@ -158,18 +196,7 @@ fn feedforward(spec: &RobotSpec, model: &Model) -> Result<(Vec<f64>, f64, f64, b
         }
         kp.push(g);
     }
-    let mass = model.total_mass();
-    let height = spec.base_height_target.max(0.1);
-    let weight = mass * model.gravity()[2].abs().max(1.0);
-    let harness = Harness {
-        dof: idx.base_dof,
-        qpos: idx.base_qpos,
-        target: [model.key_qpos(idx.stand_key)[idx.base_qpos], model.key_qpos(idx.stand_key)[idx.base_qpos + 1], 0.0],
-        k: 400.0 * mass,
-        c: 40.0 * mass,
-        k_rot: 20.0 * weight * height,
-        c_rot: 2.0 * weight * height,
-    };
+    let harness = Harness::new(&mut d, &idx)?;
     let sag_without = settle(&mut d, &idx, &idx.nominal_actuated, &harness, true).unwrap_or(f64::INFINITY);
     let mut ff = vec![0.0; n];
     for _ in 0..ROUNDS {

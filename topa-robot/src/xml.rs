@@ -9,10 +9,27 @@ use crate::error::{Error, Result};
 
 pub(crate) fn parse(path: &Path) -> Result<Element> {
     let text = std::fs::read_to_string(path).map_err(Error::read(path))?;
-    Element::parse(text.as_bytes()).map_err(|e| Error::malformed(path, "well-formed XML", e))
+    Element::parse(lenient_comments(&text).as_bytes()).map_err(|e| Error::malformed(path, "well-formed XML", e))
 }
 
-/// The document as text, with `comment` (if any) as its first line inside the root.
+/// MuJoCo's parser accepts `--` inside a comment (command lines in model comments have it); XML does not. Inside
+/// comments it becomes `- -`.
+fn lenient_comments(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(start) = rest.find("<!--") {
+        let body = &rest[start + 4..];
+        let Some(end) = body.find("-->") else { break };
+        out.push_str(&rest[..start + 4]);
+        out.push_str(&body[..end].replace("--", "- -"));
+        out.push_str("-->");
+        rest = &body[end + 3..];
+    }
+    out.push_str(rest);
+    out
+}
+
+/// The document as text.
 pub(crate) fn write(root: &Element) -> String {
     let mut out = Vec::new();
     root.write_with_config(&mut out, EmitterConfig::new().perform_indent(true).write_document_declaration(false))
