@@ -28,6 +28,15 @@ const SIDES: [(&str, &str); 10] = [
     ("left_", "right_"),
 ];
 
+/// A motor's left↔right partner, as the model decides it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Mirror {
+    /// The partner's index among the motors and the sign the mirror puts on this motor's position.
+    Found { motor: usize, sign: f64 },
+    /// Not decided: the `CHOOSE` value the spec gets, naming what to choose.
+    Choose(String),
+}
+
 #[derive(Debug, Clone)]
 pub struct DraftMotor {
     pub actuator: String,
@@ -35,8 +44,7 @@ pub struct DraftMotor {
     /// The joint's range (the actuator's control range), rad (m for a slide).
     pub range: [f64; 2],
     pub torque_limit: f64,
-    /// The mirrored motor's index and sign, or what to choose.
-    pub mirror: std::result::Result<(usize, f64), String>,
+    pub mirror: Mirror,
     /// The kinematic joint where it is not the driven one, or what to choose.
     pub kinematic: Option<String>,
 }
@@ -113,7 +121,7 @@ pub fn draft(m: &Model, path: &Path) -> Result<Draft> {
     }
     // The stand pose symmetric: each pair at the mean of the two sides.
     for i in 0..motors.len() {
-        if let Ok((k, s)) = motors[i].mirror {
+        if let Mirror::Found { motor: k, sign: s } = motors[i].mirror {
             let (ai, ak) = (m.jnt_qposadr_of(joints[i]), m.jnt_qposadr_of(joints[k]));
             if i <= k {
                 let mean = 0.5 * (q[ai] + s * q[ak]);
@@ -207,7 +215,7 @@ fn motors(m: &Model, path: &Path) -> Result<Vec<DraftMotor>> {
             joint,
             range: m.jnt_range()[j],
             torque_limit: limit,
-            mirror: Err(String::new()),
+            mirror: Mirror::Choose(String::new()),
             kinematic: None,
         });
     }
@@ -219,7 +227,7 @@ fn motors(m: &Model, path: &Path) -> Result<Vec<DraftMotor>> {
 
 /// The mirror of each actuated joint: the joint named as its other side whose axis the geometry confirms, else
 /// the joint whose anchor is nearest its reflection (within 1 cm) with a mirrored axis.
-fn mirrors(m: &Model, posed: &Posed, joints: &[usize]) -> Vec<std::result::Result<(usize, f64), String>> {
+fn mirrors(m: &Model, posed: &Posed, joints: &[usize]) -> Vec<Mirror> {
     let names: Vec<&str> = joints.iter().map(|&j| m.name_of(ObjType::Joint, j).unwrap_or("")).collect();
     (0..joints.len())
         .map(|i| {
@@ -228,20 +236,21 @@ fn mirrors(m: &Model, posed: &Posed, joints: &[usize]) -> Vec<std::result::Resul
                 names.iter().position(|n| *n == other)
             });
             if let Some(k) = by_name {
-                return posed.mirror_sign(joints[i], joints[k]).map(|s| (k, s)).ok_or_else(|| {
-                    format!(
+                return match posed.mirror_sign(joints[i], joints[k]) {
+                    Some(sign) => Mirror::Found { motor: k, sign },
+                    None => Mirror::Choose(format!(
                         "{CHOOSE}: '{}' is named as the mirror of '{}' but their axes are not mirror images",
                         names[k], names[i]
-                    )
-                });
+                    )),
+                };
             }
             let nearest = (0..joints.len())
                 .filter_map(|k| posed.mirror_sign(joints[i], joints[k]).map(|s| (k, s)))
                 .map(|(k, s)| (posed.anchor_asymmetry(joints[i], joints[k]), k, s))
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             match nearest {
-                Some((d, k, s)) if d < 0.01 => Ok((k, s)),
-                _ => Err(format!("{CHOOSE}: the other side's joint of '{}'", names[i])),
+                Some((d, k, sign)) if d < 0.01 => Mirror::Found { motor: k, sign },
+                _ => Mirror::Choose(format!("{CHOOSE}: the other side's joint of '{}'", names[i])),
             }
         })
         .collect()

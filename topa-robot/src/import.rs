@@ -177,10 +177,10 @@ fn render(
         let _ = writeln!(w, "joint_range = [{}, {}]", m.range[0], m.range[1]);
         let _ = writeln!(w, "torque_limit = {}", m.torque_limit);
         match &m.mirror {
-            Ok((k, s)) => {
-                let _ = writeln!(w, "mirror = {}\nmirror_sign = {s}", quote(&d.motors[*k].joint));
+            draft::Mirror::Found { motor, sign } => {
+                let _ = writeln!(w, "mirror = {}\nmirror_sign = {sign}", quote(&d.motors[*motor].joint));
             }
-            Err(choose) => {
+            draft::Mirror::Choose(choose) => {
                 let _ = writeln!(w, "mirror = {}\nmirror_sign = 1", quote(choose));
             }
         }
