@@ -321,6 +321,9 @@ fn close(a: [f64; 2], b: [f64; 2]) -> bool {
     (a[0] - b[0]).abs() < TOL && (a[1] - b[1]).abs() < TOL
 }
 
+/// One list of a found loop's joints (its passive joints, or its springs).
+type LoopJoints = fn(&crate::mechanism::ClosedLoop) -> &[usize];
+
 /// Every name exists in the model with the right kind, actuators in spec order drive the named joints, limits and
 /// the stand keyframe agree with the spec, and each loop's passive joints are hinges not driven by an actuator.
 fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result<(), SpecError> {
@@ -486,16 +489,19 @@ fn check_against(spec: &RobotSpec, raw: &Raw, src: &Source, m: &Model) -> Result
         // gives a loop the solver cannot close as the motors move (a wrong J, where nothing checked it).
         let eqs: Vec<usize> = l.equality.get_ref().iter().filter_map(|e| m.id(ObjType::Equality, e).ok()).collect();
         let in_loop = |f: &&crate::mechanism::ClosedLoop| eqs.contains(&f.equality);
-        for (kind, list) in [("passive", 0), ("springs", 1)] {
+        let kinds: [(&str, &str, LoopJoints); 2] = [
+            ("passive", "no actuator drives", |f| &f.passive),
+            ("springs", "a spring (stiffness) moves", |f| &f.springs),
+        ];
+        for (kind, what, joints) in kinds {
             let missing: Vec<&str> = found
                 .iter()
                 .filter(in_loop)
-                .flat_map(|f| if list == 0 { f.passive.clone() } else { f.springs.clone() })
+                .flat_map(|f| joints(f).iter().copied())
                 .filter(|j| !listed.contains(j))
                 .map(|j| m.name_of(ObjType::Joint, j).unwrap_or("(unnamed)"))
                 .collect();
             if !missing.is_empty() {
-                let what = if list == 0 { "no actuator drives" } else { "a spring (stiffness) moves" };
                 return Err(src.at(
                     l.passive.span(),
                     format!(

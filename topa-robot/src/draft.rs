@@ -133,11 +133,11 @@ pub fn draft(m: &Model, path: &Path) -> Result<Draft> {
     let posed = Posed::new(m, &q, base)?;
     let feet = feet(m, posed.data(), base, path)?;
     let foot_bodies = [m.id(ObjType::Body, &feet[0].body)?, m.id(ObjType::Body, &feet[1].body)?];
-    let loops = loops(m, path)?;
+    let found = mechanism::loops(m);
+    let loops = loops(m, &found, path)?;
     // A motor on a crank beside the leg (not on the chain from the base to a foot) moves a kinematic joint
     // through its loop: which one is the user's choice.
     let chains: Vec<Vec<usize>> = foot_bodies.iter().map(|&f| ancestors(m, f)).collect();
-    let found = mechanism::loops(m);
     for (i, mo) in motors.iter_mut().enumerate() {
         let body = m.jnt_bodyid()[joints[i]] as usize;
         if !chains.iter().any(|c| c.contains(&body)) {
@@ -340,8 +340,7 @@ fn groups(
 }
 
 /// The model's loops, those that share a passive joint merged into one (a two-rod ankle is one loop).
-fn loops(m: &Model, path: &Path) -> Result<Vec<DraftLoop>> {
-    let found = mechanism::loops(m);
+fn loops(m: &Model, found: &[mechanism::ClosedLoop], path: &Path) -> Result<Vec<DraftLoop>> {
     let mut groups: Vec<Vec<usize>> = Vec::new();
     for (i, l) in found.iter().enumerate() {
         let shares = |g: &Vec<usize>| g.iter().any(|&k| found[k].passive.iter().any(|p| l.passive.contains(p)));
