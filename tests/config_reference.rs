@@ -49,7 +49,12 @@ fn the_reference_lists_exactly_the_keys_of_a_resolved_preset() {
     }
     // Optional keys (no value unless a config sets one) are listed too.
     let optional: Vec<String> = all.iter().flat_map(|s| s.dotted_keys()).filter(|k| !listed.contains(k)).collect();
-    assert_eq!(optional, ["env.solver_iterations", "env.solver_tolerance"]);
+    let physics = ["cone", "contact_solimp", "contact_solref", "foot_shape", "impratio", "solver"];
+    let expected: Vec<String> = ["env.solver_iterations".to_string(), "env.solver_tolerance".to_string()]
+        .into_iter()
+        .chain(physics.iter().map(|k| format!("env.physics.{k}")))
+        .collect();
+    assert_eq!(optional, expected);
 }
 
 #[test]

@@ -23,6 +23,13 @@ macro_rules! mujoco_enum {
                 None
             }
 
+            /// MuJoCo's code of this kind.
+            pub fn raw(self) -> i32 {
+                match self {
+                    $($name::$variant => $raw as i32),+
+                }
+            }
+
             /// From a code MuJoCo's own compiler or solver wrote (always one of its kinds).
             pub(crate) fn of(raw: i32) -> $name {
                 $name::from_raw(raw)
@@ -61,6 +68,23 @@ mujoco_enum! {
         Cylinder = ffi::mjGEOM_CYLINDER => "cylinder",
         Box = ffi::mjGEOM_BOX => "box",
         Mesh = ffi::mjGEOM_MESH => "mesh",
+    }
+}
+
+mujoco_enum! {
+    /// The friction cone of contacts (`mjtCone`).
+    Cone {
+        Pyramidal = ffi::mjCONE_PYRAMIDAL => "pyramidal",
+        Elliptic = ffi::mjCONE_ELLIPTIC => "elliptic",
+    }
+}
+
+mujoco_enum! {
+    /// The constraint solver (`mjtSolver`).
+    Solver {
+        Pgs = ffi::mjSOL_PGS => "PGS",
+        Cg = ffi::mjSOL_CG => "CG",
+        Newton = ffi::mjSOL_NEWTON => "Newton",
     }
 }
 

@@ -34,7 +34,7 @@ mod sampling;
 pub use data::{Data, Warning};
 pub use error::{MujocoError, Result};
 pub use guard::version_string;
-pub use kinds::{ConstraintType, EqualityType, GeomType, JointType, Transmission};
+pub use kinds::{Cone, ConstraintType, EqualityType, GeomType, JointType, Solver, Transmission};
 pub use model::{Integrator, Model};
 pub use mujoco_sys::ffi::mjContact as Contact;
 pub use obj_type::ObjType;

@@ -8,6 +8,7 @@ use std::ptr::NonNull;
 
 use crate::error::{MujocoError, Result};
 use crate::guard::{self, c_buf_to_string, guarded, ERR_LEN};
+use crate::kinds::{Cone, Solver};
 use mujoco_sys::ffi::{self, mjModel};
 
 /// A compiled MuJoCo model. Immutable while shared (`Arc<Model>`); the parameters that domain randomisation and
@@ -207,6 +208,37 @@ impl Model {
 
     pub fn solver_tolerance(&self) -> f64 {
         self.raw().opt.tolerance
+    }
+
+    /// The contacts' friction cone (`opt.cone`).
+    pub fn cone(&self) -> Cone {
+        Cone::of(self.raw().opt.cone)
+    }
+
+    /// Sets the friction cone. The cone changes the constraint rows per contact: the model's `njmax` must hold them.
+    pub fn set_cone(&mut self, cone: Cone) {
+        // SAFETY: a solver option; the constraint arrays are sized by njmax, checked at every step.
+        unsafe { self.raw_mut().opt.cone = cone.raw() };
+    }
+
+    /// Ratio of frictional to normal constraint impedance (`opt.impratio`).
+    pub fn impratio(&self) -> f64 {
+        self.raw().opt.impratio
+    }
+
+    pub fn set_impratio(&mut self, ratio: f64) {
+        // SAFETY: a parameter value, not a size.
+        unsafe { self.raw_mut().opt.impratio = ratio };
+    }
+
+    /// The constraint solver (`opt.solver`).
+    pub fn solver(&self) -> Solver {
+        Solver::of(self.raw().opt.solver)
+    }
+
+    pub fn set_solver(&mut self, solver: Solver) {
+        // SAFETY: a solver option, not a size.
+        unsafe { self.raw_mut().opt.solver = solver.raw() };
     }
 
     /// The constraint solver's iteration limit (`opt.iterations`).

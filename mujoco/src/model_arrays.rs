@@ -3,7 +3,7 @@
 
 use crate::kinds::{EqualityType, GeomType, JointType, Transmission};
 use crate::model::Model;
-use mujoco_sys::ffi::{mjNBIAS, mjNEQDATA, mjNGAIN};
+use mujoco_sys::ffi::{mjNBIAS, mjNEQDATA, mjNGAIN, mjNIMP, mjNREF};
 
 /// A slice over a MuJoCo array of `count` items of type `T` (`T` may be `[f64; N]` for row-major groups).
 ///
@@ -104,7 +104,6 @@ read_arrays! {
     body_geomadr: i32, nbody;
     body_pos: [f64; 3], nbody;
     body_quat: [f64; 4], nbody;
-    body_ipos: [f64; 3], nbody;
     body_iquat: [f64; 4], nbody;
     body_subtreemass: f64, nbody;
     jnt_qposadr: i32, njnt;
@@ -120,11 +119,7 @@ read_arrays! {
     dof_bodyid: i32, nv;
     dof_jntid: i32, nv;
     geom_bodyid: i32, ngeom;
-    geom_size: [f64; 3], ngeom;
     geom_pos: [f64; 3], ngeom;
-    geom_quat: [f64; 4], ngeom;
-    /// Radius of each geom's bounding sphere.
-    geom_rbound: f64, ngeom;
     site_bodyid: i32, nsite;
     site_pos: [f64; 3], nsite;
     actuator_trnid: [i32; 2], nu;
@@ -159,6 +154,18 @@ write_arrays! {
     geom_conaffinity / geom_conaffinity_mut: i32, ngeom;
     /// Colour (alpha 0 hides a geom).
     geom_rgba / geom_rgba_mut: [f32; 4], ngeom;
+    /// Centre of mass of each body in its frame (m).
+    body_ipos / body_ipos_mut: [f64; 3], nbody;
+    /// Geom sizes (meaning by type: box half-sizes; capsule radius and half-length).
+    geom_size / geom_size_mut: [f64; 3], ngeom;
+    /// Geom orientation in its body's frame.
+    geom_quat / geom_quat_mut: [f64; 4], ngeom;
+    /// Radius of each geom's bounding sphere (the broad phase reads it: keep it in step with the size).
+    geom_rbound / geom_rbound_mut: f64, ngeom;
+    /// Contact stiffness and damping (`solref`) per geom; a contact mixes its two geoms'.
+    geom_solref / geom_solref_mut: [f64; mjNREF as usize], ngeom;
+    /// Contact impedance (`solimp`) per geom.
+    geom_solimp / geom_solimp_mut: [f64; mjNIMP as usize], ngeom;
     /// Sliding, torsional, rolling friction per geom.
     geom_friction / geom_friction_mut: [f64; 3], ngeom;
     /// Rotor inertia reflected to the joint (kg·m²). MuJoCo 2.2 reads it into the mass matrix through a value that
@@ -180,6 +187,17 @@ write_arrays! {
 }
 
 impl Model {
+    /// Gives geom `g` another shape; its size must then be given in that shape's terms (and its bounding radius).
+    pub fn set_geom_type(&mut self, g: usize, kind: GeomType) {
+        let (ptr, n) = {
+            let m = self.raw();
+            (m.geom_type, m.ngeom as usize)
+        };
+        // SAFETY: `&mut self` gives exclusive access; the array holds ngeom codes.
+        let codes: &mut [i32] = unsafe { view_mut(ptr, n) };
+        codes[g] = kind.raw();
+    }
+
     /// qpos of keyframe `key` (nq values).
     pub fn key_qpos(&self, key: usize) -> &[f64] {
         let m = self.raw();

@@ -54,6 +54,9 @@ pub struct EnvConfig {
     /// Realistic sim2sim: state estimator, sensor noise, latency, torque–speed limits (default: all off, the
     /// ideal simulator). In training, `[env.sim2sim.estimator] enabled = true` trains on the estimator's output.
     pub sim2sim: crate::sim2sim::Sim2SimConfig,
+    /// The simulator's physics relative to the MJCF's: contact model, solver, friction, motor and torso
+    /// parameters, sole shape (default: the MJCF's).
+    pub physics: crate::physics::PhysicsConfig,
     /// How far the cyclic adversary may perturb (its channels' bounds).
     pub adversary: AdversaryBounds,
     /// Rough terrain instead of the flat floor (default off: the paper's flat ground).
@@ -127,6 +130,7 @@ impl Default for EnvConfig {
             push: PushConfig::default(),
             termination: TerminationConfig::default(),
             sim2sim: Default::default(),
+            physics: Default::default(),
             adversary: AdversaryBounds::default(),
             terrain: crate::terrain::TerrainConfig::default(),
             height_scan: crate::terrain::HeightScanConfig::default(),
@@ -536,6 +540,7 @@ impl EnvConfig {
             }
         }
         self.sim2sim.validate()?;
+        self.physics.validate()?;
         self.terrain.validate()?;
         self.height_scan.validate()?;
         Ok(())

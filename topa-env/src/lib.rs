@@ -26,6 +26,7 @@ pub mod linkage;
 pub mod mechanism;
 pub mod observation;
 pub mod perturb;
+pub mod physics;
 pub mod policy_runner;
 pub mod rewards;
 pub mod sim2sim;

@@ -125,6 +125,7 @@ impl RobotEnv {
         configure_model(&mut model, &cfg)?;
         // Once per env, on its own copy (the torque constant scales the gains: applying twice would square it).
         cfg.sim2sim.actuators.apply(&mut model, &idx)?;
+        cfg.physics.apply(&mut model, &idx)?;
         let nominal = Arc::new(Nominal {
             body_mass: model.body_mass().to_vec(),
             body_inertia: model.body_inertia().to_vec(),
