@@ -204,7 +204,17 @@ impl PhysicsConfig {
     }
 
     fn put_sole(&self, m: &mut Model, g: usize) -> Result<()> {
+        if self.foot_shape.is_none() && self.foot_size_scale == 1.0 {
+            return Ok(()); // the MJCF's sole, whatever its shape (a mesh's bounding radius is MuJoCo's to compute)
+        }
         let kind = m.geom_type(g);
+        if !matches!(kind, GeomType::Box | GeomType::Capsule | GeomType::Sphere) {
+            return Err(EnvError::Config(format!(
+                "physics.foot_shape / foot_size_scale: the sole geom {} is a {kind}; only box, capsule and sphere \
+                 soles change shape or size",
+                m.name_of(mujoco::ObjType::Geom, g).unwrap_or("(unnamed)")
+            )));
+        }
         let size = m.geom_size()[g];
         let (kind, size, quat_change) = match (kind, self.foot_shape) {
             (k, None) => (k, size, None),
@@ -219,13 +229,9 @@ impl PhysicsConfig {
                 let [r, half, _] = size;
                 (GeomType::Box, [r, r, half + r], None)
             }
-            (k, Some(shape)) => {
+            (k, Some(_)) => {
                 return Err(EnvError::Config(format!(
-                    "physics.foot_shape = \"{}\": the sole geom {} is a {k}; only box and capsule soles change shape",
-                    match shape {
-                        FootShape::Box => "box",
-                        FootShape::Capsule => "capsule",
-                    },
+                    "physics.foot_shape: the sole geom {} is a {k}; only box and capsule soles change shape",
                     m.name_of(mujoco::ObjType::Geom, g).unwrap_or("(unnamed)")
                 )))
             }
@@ -243,7 +249,7 @@ impl PhysicsConfig {
         m.geom_rbound_mut()[g] = match kind {
             GeomType::Capsule => size[0] + size[1],
             GeomType::Sphere => size[0],
-            _ => size.iter().map(|x| x * x).sum::<f64>().sqrt(),
+            _ => size.iter().map(|x| x * x).sum::<f64>().sqrt(), // a box
         };
         Ok(())
     }
