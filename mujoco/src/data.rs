@@ -379,6 +379,15 @@ impl Data {
         guarded("mj_setConst", |e, n| unsafe { shim::mjs_set_const(m, d, e, n) })
     }
 
+    /// Recomputes the constants of `model` (`mj_setConst`) on a scratch `Data`, after its masses, inertias or
+    /// armature changed: MuJoCo 2.2 reads the armature into the mass matrix only through them.
+    pub fn set_const_of(model: &mut Arc<Model>) -> Result<()> {
+        let mut d = Data::new(model.clone())?;
+        d.set_const()?;
+        *model = d.model_arc().clone();
+        Ok(())
+    }
+
     /// Simulation time (s).
     pub fn time(&self) -> f64 {
         self.raw().time

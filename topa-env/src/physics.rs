@@ -153,11 +153,7 @@ impl PhysicsConfig {
         }
         self.validate()?;
         self.put(Arc::make_mut(model), idx)?;
-        // Masses, inertias and armature reach the dynamics through mj_setConst.
-        let mut d = Data::new(model.clone())?;
-        d.set_const()?;
-        *model = d.model_arc().clone();
-        Ok(())
+        Ok(Data::set_const_of(model)?)
     }
 
     fn put(&self, m: &mut Model, idx: &RobotIndices) -> Result<()> {
@@ -208,17 +204,11 @@ impl PhysicsConfig {
             return Ok(()); // the MJCF's sole, whatever its shape (a mesh's bounding radius is MuJoCo's to compute)
         }
         let kind = m.geom_type(g);
-        if !matches!(kind, GeomType::Box | GeomType::Capsule | GeomType::Sphere) {
-            return Err(EnvError::Config(format!(
-                "physics.foot_shape / foot_size_scale: the sole geom {} is a {kind}; only box, capsule and sphere \
-                 soles change shape or size",
-                m.name_of(mujoco::ObjType::Geom, g).unwrap_or("(unnamed)")
-            )));
-        }
         let size = m.geom_size()[g];
         let (kind, size, quat_change) = match (kind, self.foot_shape) {
-            (k, None) => (k, size, None),
-            (GeomType::Box, Some(FootShape::Box)) | (GeomType::Capsule, Some(FootShape::Capsule)) => (kind, size, None),
+            (GeomType::Box | GeomType::Capsule | GeomType::Sphere, None)
+            | (GeomType::Box, Some(FootShape::Box))
+            | (GeomType::Capsule, Some(FootShape::Capsule)) => (kind, size, None),
             (GeomType::Box, Some(FootShape::Capsule)) => {
                 // Along the longest half-size, as thick as the thinnest: the bottom stays at −(thinnest).
                 let long = (0..3).max_by(|&a, &b| size[a].total_cmp(&size[b])).unwrap();
@@ -229,9 +219,10 @@ impl PhysicsConfig {
                 let [r, half, _] = size;
                 (GeomType::Box, [r, r, half + r], None)
             }
-            (k, Some(_)) => {
+            (k, _) => {
                 return Err(EnvError::Config(format!(
-                    "physics.foot_shape: the sole geom {} is a {k}; only box and capsule soles change shape",
+                    "physics.foot_shape / foot_size_scale: the sole geom {} is a {k}; only box and capsule soles \
+                     change shape (and spheres size)",
                     m.name_of(mujoco::ObjType::Geom, g).unwrap_or("(unnamed)")
                 )))
             }

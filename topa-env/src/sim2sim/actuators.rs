@@ -87,11 +87,7 @@ impl ActuatorConfig {
         self.validate(idx.n_motors)?;
         let motors: Vec<(usize, usize)> = idx.actuated_dof.iter().copied().zip(idx.actuators.iter().copied()).collect();
         self.put(Arc::make_mut(model), &motors);
-        // MuJoCo 2.2 takes the armature into the mass matrix through mj_setConst.
-        let mut d = Data::new(model.clone())?;
-        d.set_const()?;
-        *model = d.model_arc().clone();
-        Ok(())
+        Ok(Data::set_const_of(model)?)
     }
 }
 
