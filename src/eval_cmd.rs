@@ -142,6 +142,15 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             }
             println!("{md}");
         }
+        EvalCmd::Physics { policy, protocol } => {
+            let (m, p) = protocol.load()?;
+            // Its row is labelled by the model it trained on (O: the serial approximation), as `topa physics` does.
+            let open = PolicyRunner::load(&policy, "policy")?.trained_on().contains("open");
+            let group = if open { topa_eval::results::Group::O } else { topa_eval::results::Group::C };
+            let policies = [(group, policy)];
+            let r = topa_eval::physics::report::run(&policies, &s, &m, &p)?;
+            return crate::groups_cmd::report_physics(&r, &c);
+        }
         EvalCmd::Endurance { policy, minutes, runs } => {
             let mut r = PolicyRunner::load(&policy, "policy")?;
             let result = endurance::run(&mut r, &s, minutes, runs, &endurance::Operator::default())?;

@@ -8,12 +8,16 @@ use anyhow::Result;
 use crate::cli::{Common, Groups};
 use crate::eval_cmd::print_json;
 use topa_eval::ablate::{self, Extent};
-use topa_eval::{field, terrain_report};
+use topa_eval::{field, physics, terrain_report};
 
-/// Reports attached to an ablation: the real-world test (field.json) and the terrain test (terrain.json).
-type Attached<'a> = [Option<&'a std::path::Path>; 2];
+/// Reports attached to an ablation: the real-world test (field.json), the terrain test (terrain.json) and the
+/// simulator-perturbation test (physics.json).
+type Attached<'a> = [Option<&'a std::path::Path>; 3];
 
-fn attach(a: &mut ablate::Ablation, [field, terrain]: Attached) -> Result<()> {
+fn attach(a: &mut ablate::Ablation, [field, terrain, physics]: Attached) -> Result<()> {
+    if let Some(p) = physics {
+        a.physics = Some(physics::report::load(p)?);
+    }
     if let Some(f) = field {
         a.field = Some(field::load(f)?);
     }
@@ -33,6 +37,7 @@ pub(crate) fn run_ablate(groups: Groups, extent: Extent, attached: Attached, c: 
         results: Vec::new(),
         field: None,
         terrain: None,
+        physics: None,
     };
     attach(&mut a, attached)?;
     // And their weights against the policies' files now, not after the evaluation (whose results would be lost).
@@ -62,6 +67,17 @@ pub(crate) fn report_terrain(r: &terrain_report::TerrainReport, c: &Common) -> R
     }
     println!("{md}");
     println!("results: {} (terrain.md, terrain.json, one heatmap per policy)", c.out.display());
+    Ok(())
+}
+
+/// `topa physics`: physics.{md,json} and the heatmap in the output folder.
+pub(crate) fn report_physics(r: &physics::report::PhysicsReport, c: &Common) -> Result<()> {
+    let md = physics::report::write(r, &c.out)?;
+    if c.json {
+        return print_json(r);
+    }
+    println!("{md}");
+    println!("results: {} (physics.md, physics.json, physics_heatmap.png/svg)", c.out.display());
     Ok(())
 }
 

@@ -32,16 +32,28 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             eval_cmd::run_eval(cmd, common)
         }
-        Cmd::Ablate { merge, field, terrain, common, .. } if !merge.is_empty() => {
-            groups_cmd::merge_ablations(&merge, [field.as_deref(), terrain.as_deref()], common)
+        Cmd::Ablate { merge, field, terrain, physics, common, .. } if !merge.is_empty() => {
+            groups_cmd::merge_ablations(&merge, [field.as_deref(), terrain.as_deref(), physics.as_deref()], common)
         }
-        Cmd::Ablate { groups, full, push_range, push_step, tracking_starts, field, terrain, common, .. } => {
+        Cmd::Ablate {
+            groups, full, push_range, push_step, tracking_starts, field, terrain, physics, common, ..
+        } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let mut extent = if full { Extent::full() } else { Extent::quick() };
             extent.push_range_n = push_range.unwrap_or(extent.push_range_n);
             extent.push_step_n = push_step.unwrap_or(extent.push_step_n);
             extent.tracking_starts = tracking_starts.unwrap_or(extent.tracking_starts);
-            groups_cmd::run_ablate(groups, extent, [field.as_deref(), terrain.as_deref()], common)
+            groups_cmd::run_ablate(groups, extent, [field.as_deref(), terrain.as_deref(), physics.as_deref()], common)
+        }
+        Cmd::Physics { merge, common, .. } if !merge.is_empty() => {
+            groups_cmd::report_physics(&topa_eval::physics::report::merge(&merge)?, &common)
+        }
+        Cmd::Physics { groups, protocol, common, .. } => {
+            trainer::nn::init_threads(resolve_threads(common.threads))?;
+            let policies = groups.policies()?;
+            let (m, p) = protocol.load()?;
+            let r = topa_eval::physics::report::run(&policies, &common.settings()?, &m, &p)?;
+            groups_cmd::report_physics(&r, &common)
         }
         Cmd::Terrain { merge, common, .. } if !merge.is_empty() => {
             groups_cmd::report_terrain(&topa_eval::terrain_report::merge(&merge)?, &common)

@@ -6,7 +6,7 @@ use anyhow::Result;
 use clap::{Args, Subcommand};
 use topa_env::IntegratorChoice;
 use topa_eval::settings::{EvalSettings, Sim2SimMode};
-use topa_eval::terrain;
+use topa_eval::{physics, terrain};
 
 #[derive(Args, Clone)]
 pub(crate) struct Common {
@@ -173,6 +173,15 @@ pub(crate) enum EvalCmd {
         #[arg(long)]
         push_step: Option<f64>,
     },
+    /// The six tracking commands and the centre push cells under perturbations of the simulator (contact model,
+    /// solver, integrator, timestep, friction, motors, torso, soles, latency), one at a time and combined: per
+    /// perturbation the bars met or missed, the share survived, a heatmap.
+    Physics {
+        #[arg(long)]
+        policy: PathBuf,
+        #[command(flatten)]
+        protocol: PhysicsArgs,
+    },
     /// A long run under an operator-like joystick (speed changes, turns, stops, hand noise, occasional pushes):
     /// interventions and their causes.
     Endurance {
@@ -216,6 +225,40 @@ impl TerrainArgs {
         let (levels, runs, window_s) = (self.levels, self.runs, self.seconds);
         let (types, resolution, contacts) = (self.types, self.resolution, self.contacts);
         terrain::Protocol { levels, runs, window_s, types, resolution, contacts }
+    }
+}
+
+/// The perturbation study's matrix and protocol.
+#[derive(Args, Clone, Debug)]
+pub(crate) struct PhysicsArgs {
+    /// The perturbation matrix (TOML; default: the built-in configs/physics/matrix.toml).
+    #[arg(long)]
+    pub(crate) matrix: Option<PathBuf>,
+    /// Initial states per tracking command.
+    #[arg(long, default_value_t = 2)]
+    pub(crate) starts: usize,
+    /// Seconds per tracking command and per push (after settling).
+    #[arg(long, default_value_t = 10.0)]
+    pub(crate) seconds: f64,
+    /// The push cells' force, N: (F_x, F_y) ∈ {−F, 0, F}².
+    #[arg(long, default_value_t = 10.0)]
+    pub(crate) push_force: f64,
+}
+
+impl PhysicsArgs {
+    pub(crate) fn load(&self) -> Result<(physics::matrix::Matrix, physics::Protocol)> {
+        anyhow::ensure!(self.starts >= 1, "--starts must be at least 1 (initial states per tracking command)");
+        anyhow::ensure!(self.seconds > 2.0, "--seconds must be longer than the 2 s transient, got {}", self.seconds);
+        anyhow::ensure!(self.push_force > 0.0, "--push-force must be positive, got {}", self.push_force);
+        let m = physics::matrix::Matrix::load(self.matrix.as_deref())?;
+        let p = physics::Protocol {
+            tracking_window_s: self.seconds,
+            tracking_starts: self.starts,
+            push_force_n: self.push_force,
+            push_window_s: self.seconds,
+            ..Default::default()
+        };
+        Ok((m, p))
     }
 }
 

@@ -11,7 +11,7 @@ mod robot;
 mod sysid;
 mod train;
 
-pub(crate) use eval::{Common, EvalCmd, QualityArg, TerrainArgs, VideoArgs};
+pub(crate) use eval::{Common, EvalCmd, PhysicsArgs, QualityArg, TerrainArgs, VideoArgs};
 pub(crate) use groups::{Groups, Sim2SimArg};
 pub(crate) use robot::RobotCmd;
 pub(crate) use sysid::SysidCmd;
@@ -87,6 +87,22 @@ pub(crate) enum Cmd {
         /// Add the terrain test (a terrain.json written by `topa terrain`) to the report.
         #[arg(long)]
         terrain: Option<PathBuf>,
+        /// Add the simulator-perturbation test (a physics.json written by `topa physics`) to the report.
+        #[arg(long)]
+        physics: Option<PathBuf>,
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Every policy of O, C and C+A under perturbations of the simulator (`topa eval physics` per seed): each
+    /// group's share of perturbations survived with its 95 % interval, the paper's order checked, a heatmap.
+    Physics {
+        #[command(flatten)]
+        groups: Groups,
+        #[command(flatten)]
+        protocol: PhysicsArgs,
+        /// Instead of running policies: join physics.json files of earlier runs.
+        #[arg(long, num_args = 1.., conflicts_with_all = ["o", "c", "ca"])]
+        merge: Vec<PathBuf>,
         #[command(flatten)]
         common: Common,
     },

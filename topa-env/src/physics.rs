@@ -41,7 +41,8 @@ pub struct PhysicsConfig {
     /// Shift of the torso's centre of mass in its own frame, m.
     pub torso_com_offset: [f64; 3],
     /// The soles' shape: a box becomes the capsule along its longest axis with its thickness as radius; a capsule
-    /// becomes the box around it. The sole's lowest point stays where it was (for a level sole).
+    /// becomes the box around it; `swapped` turns each into the other. The sole's lowest point stays where it was
+    /// (for a level sole).
     pub foot_shape: Option<FootShape>,
     /// Factor on the soles' sizes (after any change of shape).
     pub foot_size_scale: f64,
@@ -87,6 +88,8 @@ pub enum SolverChoice {
 pub enum FootShape {
     Box,
     Capsule,
+    /// The other of the two: a box sole becomes a capsule and a capsule a box (one perturbation for any robot).
+    Swapped,
 }
 
 fn bad(key: &str, why: String) -> EnvError {
@@ -144,6 +147,27 @@ impl PhysicsConfig {
             ));
         }
         Ok(())
+    }
+
+    /// `on_top` applied after these (a perturbation of a policy's training physics): its choices replace these,
+    /// its factors multiply and its offset adds.
+    pub fn then(&self, on_top: &PhysicsConfig) -> PhysicsConfig {
+        let o = on_top;
+        PhysicsConfig {
+            cone: o.cone.or(self.cone),
+            impratio: o.impratio.or(self.impratio),
+            contact_solref: o.contact_solref.or(self.contact_solref),
+            contact_solimp: o.contact_solimp.or(self.contact_solimp),
+            solver: o.solver.or(self.solver),
+            friction_scale: self.friction_scale * o.friction_scale,
+            armature_scale: self.armature_scale * o.armature_scale,
+            damping_scale: self.damping_scale * o.damping_scale,
+            frictionloss_scale: self.frictionloss_scale * o.frictionloss_scale,
+            torso_mass_scale: self.torso_mass_scale * o.torso_mass_scale,
+            torso_com_offset: std::array::from_fn(|k| self.torso_com_offset[k] + o.torso_com_offset[k]),
+            foot_shape: o.foot_shape.or(self.foot_shape),
+            foot_size_scale: self.foot_size_scale * o.foot_size_scale,
+        }
     }
 
     /// Puts these physics on `model` (a copy when shared) and recomputes what depends on them.
@@ -205,7 +229,12 @@ impl PhysicsConfig {
         }
         let kind = m.geom_type(g);
         let size = m.geom_size()[g];
-        let (kind, size, quat_change) = match (kind, self.foot_shape) {
+        let shape = match (kind, self.foot_shape) {
+            (GeomType::Box, Some(FootShape::Swapped)) => Some(FootShape::Capsule),
+            (GeomType::Capsule, Some(FootShape::Swapped)) => Some(FootShape::Box),
+            (_, shape) => shape,
+        };
+        let (kind, size, quat_change) = match (kind, shape) {
             (GeomType::Box | GeomType::Capsule | GeomType::Sphere, None)
             | (GeomType::Box, Some(FootShape::Box))
             | (GeomType::Capsule, Some(FootShape::Capsule)) => (kind, size, None),
@@ -293,6 +322,28 @@ mod tests {
     }
 
     #[test]
+    fn a_perturbation_on_top_replaces_choices_multiplies_factors_and_adds_offsets() {
+        let trained = PhysicsConfig {
+            cone: Some(ConeChoice::Elliptic),
+            impratio: Some(2.0),
+            friction_scale: 0.8,
+            torso_com_offset: [0.01, 0.0, 0.0],
+            ..Default::default()
+        };
+        let on_top = PhysicsConfig {
+            cone: Some(ConeChoice::Pyramidal),
+            friction_scale: 0.5,
+            torso_com_offset: [0.02, -0.01, 0.0],
+            ..Default::default()
+        };
+        let both = trained.then(&on_top);
+        assert_eq!((both.cone, both.impratio), (Some(ConeChoice::Pyramidal), Some(2.0)));
+        assert!((both.friction_scale - 0.4).abs() < 1e-12);
+        assert!((both.torso_com_offset[0] - 0.03).abs() < 1e-12 && both.torso_com_offset[1] == -0.01);
+        assert_eq!(trained.then(&PhysicsConfig::default()), trained, "nothing on top changes nothing");
+    }
+
+    #[test]
     fn values_land_relative_to_the_mjcf_and_the_shared_model_is_untouched() {
         let (nominal, idx) = robot("assets/robots/topa_closed.toml");
         let mut model = nominal.clone();
@@ -332,7 +383,7 @@ mod tests {
     #[test]
     fn soles_change_shape_and_size_with_their_lowest_point_kept() {
         for (spec, shape, new_kind) in [
-            ("assets/robots/topa_closed.toml", FootShape::Capsule, GeomType::Capsule),
+            ("assets/robots/topa_closed.toml", FootShape::Swapped, GeomType::Capsule),
             ("assets/robots/cassie.toml", FootShape::Box, GeomType::Box),
         ] {
             let (nominal, idx) = robot(spec);

@@ -102,6 +102,9 @@ pub struct Ablation {
     /// The terrain test of these or other policies (`topa terrain`), when attached with `--terrain`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub terrain: Option<super::terrain_report::TerrainReport>,
+    /// The simulator-perturbation test (`topa physics`), when attached with `--physics`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub physics: Option<super::physics::report::PhysicsReport>,
 }
 
 /// Runs every experiment for each (group, policy file).
@@ -130,7 +133,14 @@ pub fn run(policies: &[(Group, PathBuf)], settings: &EvalSettings, extent: &Exte
             noise,
         });
     }
-    Ok(Ablation { settings: settings.clone(), extent: extent.clone(), results, field: None, terrain: None })
+    Ok(Ablation {
+        settings: settings.clone(),
+        extent: extent.clone(),
+        results,
+        field: None,
+        terrain: None,
+        physics: None,
+    })
 }
 
 /// Joins ablations of the same protocol and settings (`--merge`, the rule of every report: `crate::merge`);
@@ -177,7 +187,8 @@ pub fn check_attached_weights(a: &Ablation, weights: &[(PathBuf, Option<u32>)]) 
     let ours = |p: &Path| weights.iter().find(|(q, _)| q == p).and_then(|&(_, crc)| crc);
     let field = a.field.iter().flat_map(|f| &f.results).map(|r| ("field", &r.policy, r.weights_crc32));
     let terrain = a.terrain.iter().flat_map(|t| &t.entries).map(|e| ("terrain", &e.policy, e.weights_crc32));
-    for (test, policy, theirs) in field.chain(terrain) {
+    let physics = a.physics.iter().flat_map(|t| &t.entries).map(|e| ("physics", &e.policy, e.weights_crc32));
+    for (test, policy, theirs) in field.chain(terrain).chain(physics) {
         if let (Some(x), Some(y)) = (ours(policy), theirs) {
             ensure!(
                 x == y,
@@ -220,6 +231,9 @@ pub fn markdown(a: &Ablation) -> Result<String> {
     if let Some(t) = &a.terrain {
         field.push_str(&format!("## Terrain\n\n{}\n", super::terrain_report::markdown(t)));
     }
+    if let Some(p) = &a.physics {
+        field.push_str(&format!("## Robustness to the simulator\n\n{}\n", physics_summary(p)));
+    }
     Ok(format!(
         "{protocol}\n\n## Headline numbers\n\n{grid_note}{}\n## The paper's claims and the bars, checked\n\n{}\n## Commanded velocity \
          tracking\n{}\n## Gait\n\n{}\n## Intervals\n\n{}\n## Each policy\n\n{}",
@@ -231,6 +245,18 @@ pub fn markdown(a: &Ablation) -> Result<String> {
         groups::per_policy_markdown(&a.results),
     )
     .replace("## Each policy", &format!("{field}## Each policy")))
+}
+
+/// The perturbation test's group scores with their intervals, and what they came from.
+fn physics_summary(p: &super::physics::report::PhysicsReport) -> String {
+    let cases = p.entries.first().map_or(0, |e| e.result.perturbed().len());
+    format!(
+        "Each seed under {cases} perturbations of the simulator (`topa physics`, matrix {}; {}); a perturbation is \
+         survived when every tracking and push bar holds there.\n\n{}",
+        p.matrix.source,
+        p.protocol.describe(),
+        super::physics::report::groups_markdown(p)
+    )
 }
 
 /// The real-world test's tables and claims, when a field report is attached (empty otherwise).
@@ -257,7 +283,10 @@ pub fn section(a: &Ablation, kind: &str) -> Result<String> {
             None => String::new(),
         }),
         "terrain" => Ok(a.terrain.as_ref().map_or(String::new(), super::terrain_report::markdown)),
-        _ => invalid!("no report section {kind:?}: use headline, claims, summary, field, field_tables or terrain"),
+        "physics" => Ok(a.physics.as_ref().map_or(String::new(), physics_summary)),
+        _ => invalid!(
+            "no report section {kind:?}: use headline, claims, summary, field, field_tables, terrain or physics"
+        ),
     }
 }
 
@@ -387,7 +416,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let settings = EvalSettings { threads: 1, ..Default::default() };
         let write = |file: &str, extent: Extent, results: Vec<PolicyResults>| {
-            let a = Ablation { settings: settings.clone(), extent, results, field: None, terrain: None };
+            let a = Ablation { settings: settings.clone(), extent, results, field: None, terrain: None, physics: None };
             report::write_json(&dir, file, &a).unwrap();
             dir.join(file)
         };
@@ -402,6 +431,7 @@ mod tests {
             results: vec![one("C", "c2.json", 7.0)],
             field: None,
             terrain: None,
+            physics: None,
         };
         report::write_json(&dir, "c2.json", &c2_ablation).unwrap();
         let m = merge(&[ca.clone(), c.clone(), dir.join("c2.json")]).unwrap();
@@ -441,6 +471,7 @@ mod tests {
             results: vec![one("C", "c4.json", 7.0)],
             field: None,
             terrain: None,
+            physics: None,
         };
         report::write_json(&dir, "seed2.json", &s2).unwrap();
         assert!(err(&[c.clone(), dir.join("seed2.json")]).contains("other evaluation settings"));
@@ -466,7 +497,7 @@ mod tests {
         let ablation = |measured: Option<u32>| {
             let r = PolicyResults { weights_crc32: measured, ..one("C", shipped, 8.0) };
             let settings = EvalSettings { threads: 1, ..Default::default() };
-            Ablation { settings, extent: Extent::full(), results: vec![r], field: None, terrain: None }
+            Ablation { settings, extent: Extent::full(), results: vec![r], field: None, terrain: None, physics: None }
         };
         // Merging: the policy file at the recorded path must still hold the weights measured.
         for (file, measured) in [("same.json", Some(crc)), ("unrecorded.json", None), ("stale.json", Some(crc ^ 1))] {

@@ -36,6 +36,7 @@ pub mod intervals;
 pub mod merge;
 mod nan_json;
 pub mod noise;
+pub mod physics;
 pub mod play;
 pub mod progress;
 pub mod progress_plot;

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use crate::error::{invalid, Error, Result};
 use serde::{Deserialize, Serialize};
+use topa_env::physics::PhysicsConfig;
 use topa_env::policy_runner::PolicyRunner;
 use topa_env::sim2sim::Sim2SimConfig;
 use topa_env::EnvConfig;
@@ -26,6 +27,12 @@ pub struct EvalSettings {
     /// Worker threads (0 = all cores).
     pub threads: usize,
     pub seed: u64,
+    /// The simulator's physics on top of the policy's training physics (`topa physics`' perturbations).
+    #[serde(default, skip_serializing_if = "PhysicsConfig::is_nominal")]
+    pub physics: PhysicsConfig,
+    /// Constraint solver iterations (None: the MJCF's; training's shortcut stays in training).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solver_iterations: Option<usize>,
 }
 
 /// The realistic mode's models (configs/sim2sim/realistic.toml, built in).
@@ -40,7 +47,8 @@ impl EvalSettings {
         c.robot = runner.robot().path.to_string_lossy().into_owned();
         c.integrator = s.integrator();
         // The evaluation model is the MJCF's: training's solver shortcuts stay in training.
-        c.solver_iterations = None;
+        c.solver_iterations = s.solver_iterations;
+        c.physics = c.physics.then(&s.physics);
         c.solver_tolerance = None;
         c.timestep = s.timestep();
         c.sim2sim = s.sim2sim.clone();
@@ -159,6 +167,8 @@ impl Default for EvalSettings {
             settle_s: 2.0,
             threads: 0,
             seed: 1,
+            physics: PhysicsConfig::default(),
+            solver_iterations: None,
         }
     }
 }
