@@ -10,6 +10,8 @@ need_pkgs=()
 command -v mujoco-testspeed >/dev/null 2>&1 || need_pkgs+=(libmujoco-samples)
 # python3: scripts/train_seeds.sh and scripts/ship_policy.py read run folders' JSON with it.
 command -v python3 >/dev/null 2>&1 || need_pkgs+=(python3)
+# python3-venv: the second evaluator's environment (scripts/mujoco_release/install.sh).
+python3 -c 'import ensurepip' >/dev/null 2>&1 || need_pkgs+=(python3-venv)
 # protoc: the TensorBoard event writer (crate tboard) compiles its protobuf schema at build time.
 command -v protoc >/dev/null 2>&1 || need_pkgs+=(protobuf-compiler)
 # Headless rendering: libEGL (glvnd), Mesa's EGL vendor library and its software (llvmpipe) driver.

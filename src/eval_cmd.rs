@@ -149,7 +149,7 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             let group = if open { topa_eval::results::Group::O } else { topa_eval::results::Group::C };
             let policies = [(group, policy)];
             let r = topa_eval::physics::report::run(&policies, &s, &m, &p)?;
-            return crate::groups_cmd::report_physics(&r, &c);
+            return crate::groups_cmd::report_physics(r, protocol.fragility, &c);
         }
         EvalCmd::Endurance { policy, minutes, runs } => {
             let mut r = PolicyRunner::load(&policy, "policy")?;

@@ -71,10 +71,14 @@ pub(crate) fn report_terrain(r: &terrain_report::TerrainReport, c: &Common) -> R
 }
 
 /// `topa physics`: physics.{md,json} and the heatmap in the output folder.
-pub(crate) fn report_physics(r: &physics::report::PhysicsReport, c: &Common) -> Result<()> {
-    let md = physics::report::write(r, &c.out)?;
+/// Writes a physics report, after the fragility search when asked for (and not already in a merged report).
+pub(crate) fn report_physics(mut r: physics::report::PhysicsReport, fragility: bool, c: &Common) -> Result<()> {
+    if fragility && r.fragility.is_empty() {
+        r.fragility = physics::fragility::search(&r)?;
+    }
+    let md = physics::report::write(&r, &c.out)?;
     if c.json {
-        return print_json(r);
+        return print_json(&r);
     }
     println!("{md}");
     println!("results: {} (physics.md, physics.json, physics_heatmap.png/svg)", c.out.display());

@@ -45,15 +45,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             extent.tracking_starts = tracking_starts.unwrap_or(extent.tracking_starts);
             groups_cmd::run_ablate(groups, extent, [field.as_deref(), terrain.as_deref(), physics.as_deref()], common)
         }
-        Cmd::Physics { merge, common, .. } if !merge.is_empty() => {
-            groups_cmd::report_physics(&topa_eval::physics::report::merge(&merge)?, &common)
+        Cmd::Physics { merge, protocol, common, .. } if !merge.is_empty() => {
+            trainer::nn::init_threads(resolve_threads(common.threads))?;
+            let r = topa_eval::physics::report::merge(&merge)?;
+            groups_cmd::report_physics(r, protocol.fragility, &common)
         }
         Cmd::Physics { groups, protocol, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let policies = groups.policies()?;
             let (m, p) = protocol.load()?;
             let r = topa_eval::physics::report::run(&policies, &common.settings()?, &m, &p)?;
-            groups_cmd::report_physics(&r, &common)
+            groups_cmd::report_physics(r, protocol.fragility, &common)
         }
         Cmd::Terrain { merge, common, .. } if !merge.is_empty() => {
             groups_cmd::report_terrain(&topa_eval::terrain_report::merge(&merge)?, &common)

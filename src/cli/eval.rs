@@ -243,6 +243,10 @@ pub(crate) struct PhysicsArgs {
     /// The push cells' force, N: (F_x, F_y) ∈ {−F, 0, F}².
     #[arg(long, default_value_t = 10.0)]
     pub(crate) push_force: f64,
+    /// Then, for each case a policy fails, search the smallest perturbation that flips it (bisection between
+    /// nominal and the case; a few more runs per failed case).
+    #[arg(long)]
+    pub(crate) fragility: bool,
 }
 
 impl PhysicsArgs {

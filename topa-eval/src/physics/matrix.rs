@@ -34,6 +34,18 @@ pub const MAX_LATENCY_PERIODS: f64 = 1.0;
 /// The keys of a case that are not `[env.physics]` keys.
 const OWN_KEYS: [&str; 5] = ["name", "timestep", "integrator", "solver_iterations", "latency_s"];
 
+/// The keys whose departure has a size (a factor, an offset, a latency); every other key is a switch.
+const GRADED: [&str; 8] = [
+    "friction_scale",
+    "armature_scale",
+    "damping_scale",
+    "frictionloss_scale",
+    "torso_mass_scale",
+    "torso_com_offset",
+    "foot_size_scale",
+    "latency_s",
+];
+
 /// One perturbation: what it changes, by name.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -138,6 +150,70 @@ impl Perturbation {
             solver_iterations: other.solver_iterations.or(self.solver_iterations),
             latency_s: other.latency_s.or(self.latency_s),
         }
+    }
+
+    /// Levels of a magnitude search from nominal (0) to this case (`levels`): the latency's physics steps of `dt`
+    /// for a latency alone, else eighths of the departure. `None` for a case with a switch (cone, solver,
+    /// integrator, sole shape, a contact parameter, the timestep or the iterations): its smallest form is itself.
+    pub fn levels(&self, dt: f64) -> Option<usize> {
+        if !self.keys.iter().all(|k| GRADED.contains(&k.as_str())) {
+            return None;
+        }
+        match (self.latency_s, self.keys.len()) {
+            (Some(l), 1) => Some(((l / dt).round() as usize).max(1)),
+            _ => Some(8),
+        }
+    }
+
+    /// This case `k` of `levels` of the way from nominal: factors and offsets linearly, the latency rounded to
+    /// whole physics steps of `dt`. Named by its sizes.
+    pub fn graded(&self, k: usize, levels: usize, dt: f64) -> Perturbation {
+        let t = k as f64 / levels as f64;
+        let lerp = |f: f64| 1.0 + t * (f - 1.0);
+        let mut g = self.clone();
+        let p = &mut g.physics;
+        for f in [
+            &mut p.friction_scale,
+            &mut p.armature_scale,
+            &mut p.damping_scale,
+            &mut p.frictionloss_scale,
+            &mut p.torso_mass_scale,
+            &mut p.foot_size_scale,
+        ] {
+            *f = lerp(*f);
+        }
+        p.torso_com_offset = p.torso_com_offset.map(|o| t * o);
+        g.latency_s = self.latency_s.map(|l| (t * l / dt).round() * dt).filter(|&l| l > 0.0);
+        g.name = g.sizes();
+        g
+    }
+
+    /// The sizes of the graded quantities this case sets, in words ("friction x0.62, latency 12.5 ms").
+    pub fn sizes(&self) -> String {
+        let p = &self.physics;
+        let mut out: Vec<String> = [
+            ("friction", p.friction_scale),
+            ("armature", p.armature_scale),
+            ("joint damping", p.damping_scale),
+            ("dry friction", p.frictionloss_scale),
+            ("torso mass", p.torso_mass_scale),
+            ("soles", p.foot_size_scale),
+        ]
+        .iter()
+        .filter(|(_, f)| *f != 1.0)
+        .map(|(what, f)| format!("{what} x{f:.3}"))
+        .collect();
+        if p.torso_com_offset != [0.0; 3] {
+            let [x, y, z] = p.torso_com_offset.map(|o| 100.0 * o);
+            out.push(format!("torso CoM ({x:+.2}, {y:+.2}, {z:+.2}) cm"));
+        }
+        if let Some(l) = self.latency_s {
+            out.push(format!("latency {:.1} ms", 1e3 * l));
+        }
+        if out.is_empty() {
+            return "nominal".into();
+        }
+        out.join(", ")
     }
 
     /// The evaluation settings of this case on top of `base` for a policy acting every `policy_dt` s: an error
@@ -256,11 +332,17 @@ impl Matrix {
         Ok(Matrix { source: source.into(), cases, combinations, combination_size, seed })
     }
 
-    /// Every case a policy runs: nominal, each case alone, then the random combinations (cases with disjoint
-    /// keys, drawn from the matrix's seed; fewer when no more disjoint sets exist).
+    /// Every case a policy runs: nominal, each case alone, then the random combinations (`combination_picks`).
     pub fn expand(&self) -> Vec<Perturbation> {
         let mut out = vec![Perturbation::nominal()];
         out.extend(self.cases.iter().cloned());
+        out.extend(self.combination_picks().iter().map(|p| self.combine(p)));
+        out
+    }
+
+    /// The members (indices into `cases`) of each random combination: cases with disjoint keys, drawn from the
+    /// matrix's seed; fewer than `combinations` when no more disjoint sets exist.
+    pub fn combination_picks(&self) -> Vec<Vec<usize>> {
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         let mut made: Vec<Vec<usize>> = Vec::new();
         let mut tries = 0;
@@ -280,14 +362,16 @@ impl Matrix {
                 made.push(pick);
             }
         }
-        for pick in made {
-            let mut c = self.cases[pick[0]].clone();
-            for &j in &pick[1..] {
-                c = c.with(&self.cases[j]);
-            }
-            out.push(c);
+        made
+    }
+
+    /// The combination of the given cases (indices into `cases`, at least one).
+    pub fn combine(&self, members: &[usize]) -> Perturbation {
+        let mut c = self.cases[members[0]].clone();
+        for &j in &members[1..] {
+            c = c.with(&self.cases[j]);
         }
-        out
+        c
     }
 
     /// Checks every case against a policy acting every `policy_dt` s before anything runs.

@@ -34,6 +34,9 @@ pub struct PhysicsReport {
     pub matrix: Matrix,
     pub settings: EvalSettings,
     pub entries: Vec<PhysicsEntry>,
+    /// The smallest perturbation that flips each failed case (`--fragility`), if searched.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fragility: Vec<super::fragility::Flip>,
 }
 
 /// Runs every (group, policy) through the matrix; every policy is checked against the matrix first, so that a
@@ -53,7 +56,7 @@ pub fn run(policies: &[(Group, PathBuf)], s: &EvalSettings, m: &Matrix, p: &Prot
         let weights_crc32 = Some(r.policy.meta.weights_crc32);
         entries.push(PhysicsEntry { group: *group, policy: path.clone(), weights_crc32, result });
     }
-    Ok(PhysicsReport { protocol: p.clone(), matrix: m.clone(), settings: s.clone(), entries })
+    Ok(PhysicsReport { protocol: p.clone(), matrix: m.clone(), settings: s.clone(), entries, fragility: Vec::new() })
 }
 
 /// Joins physics reports of the same protocol, matrix and settings (`--merge`, the rule of every report:
@@ -86,6 +89,7 @@ impl Mergeable for PhysicsReport {
 
     fn absorb(&mut self, part: PhysicsReport) -> Result<()> {
         self.entries.extend(part.entries);
+        self.fragility.extend(part.fragility);
         Ok(())
     }
 
@@ -221,6 +225,10 @@ pub fn markdown(r: &PhysicsReport) -> String {
     } else {
         s.push_str(&breaking.join("\n"));
         s.push('\n');
+    }
+    if !r.fragility.is_empty() {
+        s.push('\n');
+        s.push_str(&super::fragility::markdown(&r.fragility));
     }
     s
 }
