@@ -256,6 +256,63 @@ fn domain_randomisation_stays_within_its_ranges() {
 }
 
 #[test]
+fn the_torso_com_and_contact_damping_ranges_are_drawn_per_episode_and_off_by_default() {
+    let model = assets::load_model(ModelKind::Closed).unwrap();
+    let torso = RobotEnv::new(model.clone(), Arc::new(EnvConfig::default()), 3, 0).unwrap().indices().torso_body;
+    let (ipos, solref) = (model.body_ipos()[torso], model.geom_solref().to_vec());
+    let mut obs = vec![0.0; OBS_DIM];
+    // Off (the paper's randomisation only): the torso's CoM and every solref stay the MJCF's.
+    let mut e = RobotEnv::new(model.clone(), Arc::new(EnvConfig::default()), 3, 0).unwrap();
+    e.reset(&mut obs).unwrap();
+    assert_eq!(e.data().model().body_ipos()[torso], ipos);
+    assert_eq!(e.data().model().geom_solref(), &solref[..]);
+    let mut cfg = EnvConfig::default();
+    cfg.domain_rand.torso_com_offset = [0.02, 0.01, 0.0];
+    cfg.domain_rand.contact_damping_ratio = [0.3, 1.0];
+    let mut e = RobotEnv::new(model, Arc::new(cfg), 3, 0).unwrap();
+    let (mut seen_x, mut seen_z) = (Vec::new(), Vec::new());
+    for _ in 0..20 {
+        e.reset(&mut obs).unwrap();
+        let m = e.data().model();
+        let d = [0, 1, 2].map(|k| m.body_ipos()[torso][k] - ipos[k]);
+        assert!(d[0].abs() <= 0.02 && d[1].abs() <= 0.01 && d[2] == 0.0, "CoM shift {d:?}");
+        let z = m.geom_solref()[0][1];
+        assert!((0.3..=1.0).contains(&z), "damping ratio {z}");
+        assert!(m.geom_solref().iter().zip(&solref).all(|(r, n)| r[0] == n[0] && r[1] == z), "one ratio, time kept");
+        seen_x.push(d[0]);
+        seen_z.push(z);
+    }
+    let spread = |v: &[f64]| v.iter().cloned().fold(f64::MIN, f64::max) - v.iter().cloned().fold(f64::MAX, f64::min);
+    assert!(spread(&seen_x) > 0.02 && spread(&seen_z) > 0.4, "draws differ between episodes");
+    let mut bad = EnvConfig::default();
+    bad.domain_rand.contact_damping_ratio = [-0.1, 1.0];
+    assert!(bad.validate().unwrap_err().to_string().contains("contact_damping_ratio"));
+}
+
+#[test]
+fn a_latency_range_draws_each_episodes_delay_within_it() {
+    let mut cfg = quiet(ModelKind::Closed);
+    cfg.sim2sim.latency.action_physics_steps = 1;
+    cfg.sim2sim.latency.action_physics_steps_max = 4;
+    cfg.validate().unwrap();
+    let mut e = env(cfg.clone(), 5);
+    let mut obs = vec![0.0; OBS_DIM];
+    let mut delays = std::collections::BTreeSet::new();
+    for _ in 0..30 {
+        e.reset(&mut obs).unwrap();
+        delays.insert(e.sim2sim().unwrap().action_delay_steps());
+    }
+    assert_eq!(delays.into_iter().collect::<Vec<_>>(), vec![1, 2, 3, 4]);
+    cfg.sim2sim.latency.action_physics_steps_max = 0; // a fixed delay
+    let mut e = env(cfg.clone(), 5);
+    e.reset(&mut obs).unwrap();
+    assert_eq!(e.sim2sim().unwrap().action_delay_steps(), 1);
+    cfg.sim2sim.latency.action_physics_steps = 6;
+    cfg.sim2sim.latency.action_physics_steps_max = 4;
+    assert!(cfg.validate().unwrap_err().to_string().contains("action_physics_steps_max"));
+}
+
+#[test]
 fn pushes_kick_the_base_by_the_configured_speed() {
     let mut pushed = quiet(ModelKind::Closed);
     pushed.push =
@@ -352,7 +409,12 @@ fn snapshot_restore_continues_bit_for_bit() {
         topa_env::sim2sim::sensors::NoiseConfig { enabled: true, white: 0.01, bias_initial: 0.01, bias_walk: 0.001 };
     with_estimator.sim2sim.latency.observation_policy_steps = 2;
     with_estimator.sim2sim.latency.action_physics_steps = 3;
-    for cfg in [EnvConfig::default(), with_estimator] {
+    // Ranges drawn per episode: the latency, the torso's CoM, the contacts' damping.
+    let mut ranged = EnvConfig::default();
+    ranged.sim2sim.latency.action_physics_steps_max = 8;
+    ranged.domain_rand.torso_com_offset = [0.02, 0.02, 0.0];
+    ranged.domain_rand.contact_damping_ratio = [0.3, 1.0];
+    for cfg in [EnvConfig::default(), with_estimator, ranged] {
         snapshot_round_trip(&cfg);
     }
 }

@@ -55,6 +55,8 @@ struct Nominal {
     body_mass: Vec<f64>,
     body_inertia: Vec<[f64; 3]>,
     geom_friction: Vec<[f64; 3]>,
+    geom_solref: Vec<[f64; 2]>,
+    body_ipos: Vec<[f64; 3]>,
 }
 
 pub struct RobotEnv {
@@ -130,6 +132,8 @@ impl RobotEnv {
             body_mass: model.body_mass().to_vec(),
             body_inertia: model.body_inertia().to_vec(),
             geom_friction: model.geom_friction().to_vec(),
+            geom_solref: model.geom_solref().to_vec(),
+            body_ipos: model.body_ipos().to_vec(),
         });
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(index);
@@ -307,6 +311,24 @@ impl RobotEnv {
         // Contact friction is the larger of the two geoms' values: scale both the floor and the soles.
         for g in [floor, feet[0], feet[1]] {
             m.geom_friction_mut()[g][0] = nominal.geom_friction[g][0] * friction;
+        }
+        // Beyond the paper, drawn only when configured (the paper's draws stay the same stream).
+        let torso = self.idx.torso_body;
+        if dr.torso_com_offset != [0.0; 3] {
+            let mut ipos = nominal.body_ipos[torso];
+            for (k, half) in dr.torso_com_offset.iter().enumerate() {
+                ipos[k] += if *half > 0.0 { self.rng.random_range(-half..=*half) } else { 0.0 };
+            }
+            self.data.model_mut().body_ipos_mut()[torso] = ipos;
+        }
+        let [z0, z1] = dr.contact_damping_ratio;
+        if z1 > 0.0 {
+            let z = self.rng.random_range(z0..=z1);
+            let m = self.data.model_mut();
+            // A solref in MuJoCo's direct form (negative: stiffness, damping) has no damping ratio to draw.
+            for (g, r) in nominal.geom_solref.iter().enumerate().filter(|(_, r)| r[0] > 0.0) {
+                m.geom_solref_mut()[g] = [r[0], z];
+            }
         }
         self.data.set_const()?;
         Ok(())

@@ -15,6 +15,14 @@ impl RobotEnv {
         f.extend_from_slice(m.body_mass());
         f.extend(m.body_inertia().iter().flatten());
         f.extend(m.geom_friction().iter().map(|g| g[0]));
+        // The draws beyond the paper, only when configured (rows of the paper's configs keep their length).
+        let dr = &self.cfg.domain_rand;
+        if dr.torso_com_offset != [0.0; 3] {
+            f.extend_from_slice(&m.body_ipos()[self.idx.torso_body]);
+        }
+        if dr.contact_damping_ratio[1] > 0.0 {
+            f.extend(m.geom_solref().iter().map(|r| r[1]));
+        }
         f.extend_from_slice(&self.command);
         let o = self.command_override;
         f.extend_from_slice(&o.unwrap_or([0.0; 3]));
@@ -65,12 +73,27 @@ impl RobotEnv {
         let mass = take(nbody)?.to_vec();
         let inertia = take(3 * nbody)?.to_vec();
         let friction = take(ngeom)?.to_vec();
+        let dr = self.cfg.domain_rand.clone();
+        let torso = self.idx.torso_body;
+        let ipos = if dr.torso_com_offset != [0.0; 3] {
+            take(3)?.to_vec()
+        } else {
+            self.data.model().body_ipos()[torso].to_vec()
+        };
+        let damping: Vec<f64> = if dr.contact_damping_ratio[1] > 0.0 {
+            take(ngeom)?.to_vec()
+        } else {
+            self.data.model().geom_solref().iter().map(|r| r[1]).collect()
+        };
         // The episode's friction scale, which a ground friction map multiplies, is the floor's over its nominal.
         let floor = self.idx.floor_geom;
         let nominal_floor = self.nominal.geom_friction[floor][0];
         self.friction_scale = if nominal_floor > 0.0 { friction[floor] / nominal_floor } else { 1.0 };
-        if mass != self.data.model().body_mass()
-            || friction.iter().zip(self.data.model().geom_friction()).any(|(a, g)| *a != g[0])
+        let m = self.data.model();
+        if mass != m.body_mass()
+            || friction.iter().zip(m.geom_friction()).any(|(a, g)| *a != g[0])
+            || ipos != m.body_ipos()[torso]
+            || damping.iter().zip(m.geom_solref()).any(|(a, r)| *a != r[1])
         {
             let m = self.data.model_mut();
             m.body_mass_mut().copy_from_slice(&mass);
@@ -79,6 +102,10 @@ impl RobotEnv {
             }
             for (g, v) in m.geom_friction_mut().iter_mut().zip(&friction) {
                 g[0] = *v;
+            }
+            m.body_ipos_mut()[torso] = [ipos[0], ipos[1], ipos[2]];
+            for (r, z) in m.geom_solref_mut().iter_mut().zip(&damping) {
+                r[1] = *z;
             }
             // set_const resets the Data to qpos0; restore the state afterwards.
             self.data.set_const()?;

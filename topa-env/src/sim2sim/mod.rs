@@ -16,7 +16,7 @@ use std::sync::Arc;
 
 use mujoco::{Data, Model};
 use nalgebra::{UnitQuaternion, Vector3};
-use rand::SeedableRng;
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -82,6 +82,9 @@ pub struct LatencyConfig {
     pub action_policy_steps: usize,
     /// … plus this many physics steps after it was computed.
     pub action_physics_steps: usize,
+    /// Above `action_physics_steps`: each episode draws its physics-step delay uniformly from
+    /// `action_physics_steps..=action_physics_steps_max` (0: a fixed delay). Domain randomisation of latency.
+    pub action_physics_steps_max: usize,
 }
 
 /// Torque–speed limit of the motors (MuJoCo's actuators have a fixed force range): full torque up to
@@ -136,7 +139,8 @@ impl Sim2SimConfig {
             || self.accel.enabled
             || self.orientation.enabled
             || self.encoders.enabled
-            || l.observation_policy_steps + l.action_policy_steps + l.action_physics_steps > 0
+            || l.observation_policy_steps + l.action_policy_steps + l.action_physics_steps + l.action_physics_steps_max
+                > 0
             || self.torque_speed.enabled
     }
 
@@ -158,6 +162,14 @@ impl Sim2SimConfig {
             return Err(crate::error::EnvError::Config(
                 "sim2sim.encoders: counts_per_rev and velocity_noise must be ≥ 0".into(),
             ));
+        }
+        let l = &self.latency;
+        if l.action_physics_steps_max != 0 && l.action_physics_steps_max < l.action_physics_steps {
+            return Err(crate::error::EnvError::Config(format!(
+                "sim2sim.latency: action_physics_steps_max ({}) is below action_physics_steps ({}); it is the top of \
+                 the range drawn per episode (0: no range)",
+                l.action_physics_steps_max, l.action_physics_steps
+            )));
         }
         let t = &self.torque_speed;
         if t.enabled && t.full_torque_speed.len() != t.no_load_speed.len() {
@@ -217,6 +229,8 @@ pub struct Sim2Sim {
     kin: LegKinematics,
     obs_delay: Delay<Sensed>,
     action_delay: Delay<Vec<f64>>,
+    /// The longest action delay a latency range can draw, physics steps (0: a fixed delay).
+    action_delay_cap: usize,
     target: Vec<f64>,
     /// Per-physics-step buffers: the delayed targets applied, the motor speeds.
     applied: Vec<f64>,
@@ -273,6 +287,7 @@ impl Sim2Sim {
             kin: LegKinematics::new(model, idx)?,
             obs_delay: Delay::new(delay.observation_policy_steps, empty.clone()),
             action_delay: Delay::new(0, vec![0.0; n]),
+            action_delay_cap: 0,
             rng,
             gyro: Noise3::default(),
             accel: Noise3::default(),
@@ -299,6 +314,11 @@ impl Sim2Sim {
         &self.cfg
     }
 
+    /// The physics steps between a target and its motors this episode (the latency's draw, when a range).
+    pub fn action_delay_steps(&self) -> usize {
+        self.action_delay.delay()
+    }
+
     /// At an episode's start: new biases, empty delays holding the initial targets, the filter at rest.
     pub fn reset(&mut self, d: &Data, idx: &RobotIndices, decimation: usize) -> Result<()> {
         let c = &self.cfg;
@@ -308,7 +328,17 @@ impl Sim2Sim {
         let ctrl: Vec<f64> = idx.actuators.iter().map(|&a| d.ctrl()[a]).collect();
         self.target.copy_from_slice(&ctrl);
         let l = c.latency;
-        self.action_delay = Delay::new(l.action_policy_steps * decimation + l.action_physics_steps, ctrl);
+        let physics_steps = if l.action_physics_steps_max > l.action_physics_steps {
+            self.rng.random_range(l.action_physics_steps..=l.action_physics_steps_max)
+        } else {
+            l.action_physics_steps
+        };
+        self.action_delay = Delay::new(l.action_policy_steps * decimation + physics_steps, ctrl);
+        self.action_delay_cap = if l.action_physics_steps_max > 0 {
+            l.action_policy_steps * decimation + l.action_physics_steps_max
+        } else {
+            0
+        };
         self.sense(d, idx, 0.0)?;
         self.reset_filter()?;
         self.sense_velocity(d, idx);
@@ -476,15 +506,27 @@ impl Sim2Sim {
         for a in self.action_delay.items() {
             f.extend_from_slice(a);
         }
+        // A drawn delay pads its queue to the range's top, so that every env's row has one length.
+        let n = self.target.len();
+        f.extend(std::iter::repeat_n(0.0, n * self.action_delay_cap.saturating_sub(self.action_delay.delay())));
         task::save_rng(&self.rng, u);
         u.push(self.filter_resets);
+        if self.cfg.latency.action_physics_steps_max > 0 {
+            u.push(self.action_delay.delay() as u64); // this episode's draw sizes the queue above
+        }
     }
 
     /// Inverse of `save`; returns the values consumed.
     pub fn load(&mut self, f: &[f64], u: &[u64]) -> Result<(usize, usize)> {
         let n = self.target.len();
-        let need = 9 + self.kf.saved_len() + n + self.obs_delay.delay() * (9 + 2 * n) + self.action_delay.delay() * n;
-        if f.len() < need || u.len() < task::RNG_WORDS + 1 {
+        let ranged = self.cfg.latency.action_physics_steps_max > 0;
+        let words = task::RNG_WORDS + 1 + usize::from(ranged);
+        if ranged && u.len() >= words {
+            self.action_delay = Delay::new(u[words - 1] as usize, vec![0.0; n]);
+        }
+        let slots = if ranged { self.action_delay_cap } else { self.action_delay.delay() };
+        let need = 9 + self.kf.saved_len() + n + self.obs_delay.delay() * (9 + 2 * n) + slots * n;
+        if f.len() < need || u.len() < words {
             return Err(crate::error::EnvError::Shape(
                 "env snapshot has no (or a different) realistic-sim2sim state for this config".into(),
             ));
@@ -514,10 +556,10 @@ impl Sim2Sim {
         self.obs_delay.set_items(items);
         let delayed = self.action_delay.delay();
         let acts: Vec<Vec<f64>> = (0..delayed).map(|j| f[k + j * n..k + (j + 1) * n].to_vec()).collect();
-        k += delayed * n;
+        k += slots * n;
         self.action_delay.set_items(acts);
         self.rng = task::load_rng(u);
         self.filter_resets = u[task::RNG_WORDS];
-        Ok((k, task::RNG_WORDS + 1))
+        Ok((k, words))
     }
 }

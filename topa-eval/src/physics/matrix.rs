@@ -253,7 +253,11 @@ impl Perturbation {
                 "case '{}': a latency of {l} s is not a whole number of physics steps of {dt} s; use a multiple of it",
                 self.name
             );
-            s.sim2sim.latency.action_physics_steps += steps.round() as usize;
+            let lat = &mut s.sim2sim.latency;
+            lat.action_physics_steps += steps.round() as usize;
+            if lat.action_physics_steps_max > 0 {
+                lat.action_physics_steps_max += steps.round() as usize; // a drawn range moves with it
+            }
         }
         Ok(s)
     }
