@@ -3,8 +3,8 @@
 (eval_tracking.py, driven by the exported ONNX), side by side: agreement.md and agreement.json in --out.
 
     bash scripts/mujoco_release/install.sh
-    .venv-mujoco-release/bin/python scripts/mujoco_release/agreement.py --topa target/release/topa \
-        --out docs/results/mujoco_release assets/policies/C assets/policies/CA
+    .venv-mujoco-release/bin/python scripts/mujoco_release/agreement.py --out docs/results/mujoco_release \
+        assets/policies/C assets/policies/CA
 
 A policy passes in the release when it falls on none of the six commands and its worst component MAE (the largest
 whole-window error of v_x, v_y, w_z over the commands, as `topa ablate` reports it) is within max(20 %, 0.03) of
@@ -145,12 +145,16 @@ def write_atomic(path: Path, text: str) -> None:
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("policies", nargs="+", help="policy sidecars (.json) or folders of them")
-    p.add_argument("--topa", default="topa", help="the topa binary (default: topa on the PATH)")
+    p.add_argument("--topa", default=None,
+                   help="the topa binary (default: the repository's target/release/topa if built, else topa on the PATH)")
     p.add_argument("--starts", type=int, default=3, help="initial states per command (default 3)")
     p.add_argument("--seconds", type=float, default=10.0, help="window per command, s (default 10)")
     p.add_argument("--seed", type=int, default=1, help="seed of the starts (default 1)")
     p.add_argument("--out", default="out/mujoco_release", help="folder for agreement.md and agreement.json")
     args = p.parse_args()
+    if args.topa is None:
+        built = HERE.parents[1] / "target" / "release" / "topa"
+        args.topa = str(built) if built.exists() else "topa"
     if args.starts < 1 or args.seconds <= 0:
         raise SystemExit("agreement.py: --starts must be >= 1 and --seconds > 0")
     out = Path(args.out)

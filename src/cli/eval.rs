@@ -85,10 +85,10 @@ pub(crate) enum EvalCmd {
         #[arg(long)]
         policy: PathBuf,
         /// Seconds per command (after settling).
-        #[arg(long, default_value_t = 10.0)]
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 10.0)]
         seconds: f64,
         /// Initial states per command (the row reports their mean, falls and stand-stills).
-        #[arg(long, default_value_t = 10)]
+        #[arg(long, value_parser = crate::cli::values::at_least_one, default_value_t = 10)]
         starts: usize,
     },
     /// Constant torso force on a grid: time to fall, mean t_fall, heatmap (PNG + SVG).
@@ -96,13 +96,13 @@ pub(crate) enum EvalCmd {
         #[arg(long)]
         policy: PathBuf,
         /// Grid half-range, N.
-        #[arg(long, default_value_t = 30.0)]
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 30.0)]
         range: f64,
         /// Grid step, N.
-        #[arg(long, default_value_t = 5.0)]
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 5.0)]
         step: f64,
         /// Observation window, s.
-        #[arg(long, default_value_t = 10.0)]
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 10.0)]
         window: f64,
         /// Also render one cell of the grid (the force given by --video-force) as a video.
         #[command(flatten)]
@@ -116,13 +116,13 @@ pub(crate) enum EvalCmd {
         #[arg(long)]
         policy: PathBuf,
         /// Runs per noise level.
-        #[arg(long, default_value_t = 100)]
+        #[arg(long, value_parser = crate::cli::values::at_least_one, default_value_t = 100)]
         runs: usize,
         /// Seconds per run.
-        #[arg(long, default_value_t = 20.0)]
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 20.0)]
         seconds: f64,
         /// Seconds between noise draws.
-        #[arg(long, default_value_t = 0.5)]
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 0.5)]
         interval: f64,
     },
     /// Drive the policy over a course (the paper's 100 m indoor test) at several top speeds: time to the goal,
@@ -160,17 +160,17 @@ pub(crate) enum EvalCmd {
         #[arg(long = "run", required = true)]
         runs: Vec<PathBuf>,
         /// Evaluate the checkpoints at multiples of this iteration (and the last).
-        #[arg(long, default_value_t = 100)]
+        #[arg(long, value_parser = crate::cli::values::at_least_one, default_value_t = 100)]
         every: usize,
         /// Seconds per command (after settling).
-        #[arg(long, default_value_t = 10.0)]
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 10.0)]
         seconds: f64,
         /// Initial states per command.
-        #[arg(long, default_value_t = 10)]
+        #[arg(long, value_parser = crate::cli::values::at_least_one, default_value_t = 10)]
         starts: usize,
         /// Also the standing push grid to ±30 N in steps of this many N (10: the quick protocol's 7×7); a run with
         /// the adversary then has the C+A bar on its mean time to fall.
-        #[arg(long)]
+        #[arg(long, value_parser = crate::cli::values::positive)]
         push_step: Option<f64>,
     },
     /// The six tracking commands and the centre push cells under perturbations of the simulator (contact model,
@@ -188,10 +188,10 @@ pub(crate) enum EvalCmd {
         #[arg(long)]
         policy: PathBuf,
         /// Simulated minutes per run.
-        #[arg(long, default_value_t = 40.0)]
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 40.0)]
         minutes: f64,
         /// Runs side by side (each with its own operator).
-        #[arg(long, default_value_t = 1)]
+        #[arg(long, value_parser = crate::cli::values::at_least_one, default_value_t = 1)]
         runs: usize,
     },
 }
@@ -200,19 +200,19 @@ pub(crate) enum EvalCmd {
 #[derive(Args, Clone, Debug)]
 pub(crate) struct TerrainArgs {
     /// Difficulty levels from the easiest to the hardest of the terrain's ranges.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, value_parser = crate::cli::values::at_least_one, default_value_t = 5)]
     pub(crate) levels: usize,
     /// Runs per tile and command (each from its own random heading).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, value_parser = crate::cli::values::at_least_one, default_value_t = 2)]
     pub(crate) runs: usize,
     /// Seconds per run (after settling).
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 10.0)]
     pub(crate) seconds: f64,
     /// Only these tile types, comma-separated (default: the terrain's), e.g. stairs_up,stairs_down.
     #[arg(long, value_delimiter = ',')]
     pub(crate) types: Vec<topa_env::terrain::TileKind>,
     /// Height samples this far apart instead of the terrain's, m (a finer field has steeper stair risers).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::values::positive)]
     pub(crate) resolution: Option<f64>,
     /// Box contacts with the ground: prisms (MuJoCo's, the evaluation's) or vertices (what a training config may
     /// choose, to measure what it changes).
@@ -235,13 +235,13 @@ pub(crate) struct PhysicsArgs {
     #[arg(long)]
     pub(crate) matrix: Option<PathBuf>,
     /// Initial states per tracking command.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, value_parser = crate::cli::values::at_least_one, default_value_t = 2)]
     pub(crate) starts: usize,
     /// Seconds per tracking command and per push (after settling).
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 10.0)]
     pub(crate) seconds: f64,
     /// The push cells' force, N: (F_x, F_y) ∈ {−F, 0, F}².
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 10.0)]
     pub(crate) push_force: f64,
     /// Then, for each case a policy fails, search the smallest perturbation that flips it (bisection between
     /// nominal and the case; a few more runs per failed case).

@@ -10,6 +10,7 @@ mod groups;
 mod robot;
 mod sysid;
 mod train;
+mod values;
 
 pub(crate) use eval::{Common, EvalCmd, PhysicsArgs, QualityArg, TerrainArgs, VideoArgs};
 pub(crate) use groups::{Groups, Sim2SimArg};
@@ -67,14 +68,14 @@ pub(crate) enum Cmd {
         full: bool,
         /// Push grid half-range, N (the paper's: 30). A stronger grid separates robust policies that the paper's
         /// grid cannot (it nearly saturates for ours); the paper's numbers beside it are then for ±30 N.
-        #[arg(long)]
+        #[arg(long, value_parser = crate::cli::values::positive)]
         push_range: Option<f64>,
         /// Push grid step, N (the paper's: 5; the quick protocol's: 10).
-        #[arg(long)]
+        #[arg(long, value_parser = crate::cli::values::positive)]
         push_step: Option<f64>,
         /// Initial states each tracking command runs from (full protocol: 10, quick: 3): a policy that sometimes
         /// stands still on a command from rest shows as a count, not as one reset's coin flip.
-        #[arg(long)]
+        #[arg(long, value_parser = crate::cli::values::at_least_one)]
         tracking_starts: Option<usize>,
         /// Instead of running policies: join the ablation.json files of earlier runs (same protocol and settings;
         /// e.g. one per policy, run as each training ended) into one report with the groups' mean ± sd; one file
@@ -131,7 +132,7 @@ pub(crate) enum Cmd {
         #[arg(long, value_delimiter = ',', default_value = "0.3,0.5,0.7")]
         speeds: Vec<f64>,
         /// Simulated minutes of the endurance run.
-        #[arg(long, default_value_t = 40.0)]
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 40.0)]
         minutes: f64,
         /// Sim2sim modes to run in (ideal, realistic, or files).
         #[arg(long, value_delimiter = ',', default_value = "ideal,realistic")]
@@ -149,7 +150,7 @@ pub(crate) enum Cmd {
         /// Command v_x,v_y,w_z (m/s, m/s, rad/s), e.g. 0.5,0,0.
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "0.5,0,0")]
         command: Vec<f64>,
-        #[arg(long, default_value_t = 10.0)]
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 10.0)]
         seconds: f64,
         /// Write an MCAP file (Foxglove: /tf, /scene, /joints, /motors, /base, /command, /contacts, /rewards).
         #[arg(long)]
@@ -251,7 +252,7 @@ pub(crate) enum BenchCmd {
         #[arg(long, default_value = "model")]
         integrator: topa_env::IntegratorChoice,
         /// Seconds per measurement.
-        #[arg(long, default_value_t = 2.0)]
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 2.0)]
         seconds: f64,
         /// Interleaved rounds (best kept).
         #[arg(long, default_value_t = 3)]
