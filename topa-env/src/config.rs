@@ -373,34 +373,7 @@ impl Default for ObsNoiseConfig {
     }
 }
 
-/// Per-episode randomisation of the env's own model copy (paper: "scale" operator).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, default)]
-pub struct DomainRandConfig {
-    /// Randomise each episode (false: the nominal model).
-    pub enabled: bool,
-    /// Range of the ground (and sole) friction scale (paper: [0.75, 1.25]).
-    pub friction_scale: [f64; 2],
-    /// Range of the scale of every link's mass, inertia scaled alike so density stays uniform (paper: [0.9, 1.1]).
-    pub mass_scale: [f64; 2],
-    /// Shift of the torso's centre of mass, uniform in ± this per axis of its frame, m (0: none; beyond the paper).
-    pub torso_com_offset: [f64; 3],
-    /// Range of the contacts' damping ratio (every geom's solref, its time constant kept), drawn per episode
-    /// ([0, 0]: the MJCF's; beyond the paper).
-    pub contact_damping_ratio: [f64; 2],
-}
-
-impl Default for DomainRandConfig {
-    fn default() -> Self {
-        DomainRandConfig {
-            enabled: true,
-            friction_scale: [0.75, 1.25],
-            mass_scale: [0.9, 1.1],
-            torso_com_offset: [0.0; 3],
-            contact_damping_ratio: [0.0; 2],
-        }
-    }
-}
+pub use crate::domain_rand::DomainRandConfig;
 
 /// Random pushes: the base's horizontal velocity gets a kick of random direction and magnitude.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -521,25 +494,7 @@ impl EnvConfig {
         ] {
             check_positive(name, v)?;
         }
-        check_range("domain_rand.friction_scale", self.domain_rand.friction_scale)?;
-        check_range("domain_rand.mass_scale", self.domain_rand.mass_scale)?;
-        if self.domain_rand.mass_scale[0] <= 0.0 || self.domain_rand.friction_scale[0] <= 0.0 {
-            return Err(EnvError::Config("domain_rand scales must be positive".into()));
-        }
-        let dr = &self.domain_rand;
-        if dr.torso_com_offset.iter().any(|x| !(x.is_finite() && (0.0..=0.5).contains(x))) {
-            return Err(EnvError::Config(format!(
-                "domain_rand.torso_com_offset: each axis's half-range must be in [0, 0.5] m, got {:?}",
-                dr.torso_com_offset
-            )));
-        }
-        check_range("domain_rand.contact_damping_ratio", dr.contact_damping_ratio)?;
-        if dr.contact_damping_ratio != [0.0; 2] && dr.contact_damping_ratio[0] <= 0.0 {
-            return Err(EnvError::Config(format!(
-                "domain_rand.contact_damping_ratio: a damping ratio must be positive, got {:?} ([0, 0] turns it off)",
-                dr.contact_damping_ratio
-            )));
-        }
+        self.domain_rand.validate()?;
         check_range("push.velocity", self.push.velocity)?;
         check_positive("push.interval_s", self.push.interval_s)?;
         let p = &self.push;

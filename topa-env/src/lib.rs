@@ -18,6 +18,7 @@
 pub mod assets;
 pub mod config;
 pub mod course;
+pub mod domain_rand;
 pub mod env;
 pub mod error;
 pub mod indices;
