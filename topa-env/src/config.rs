@@ -63,6 +63,9 @@ pub struct EnvConfig {
     pub terrain: crate::terrain::TerrainConfig,
     /// Ground heights around the robot as extra observation values (default off: the paper's blind policy).
     pub height_scan: crate::terrain::HeightScanConfig,
+    /// What the policy reads beyond the paper's blocks: without the base velocity, with earlier frames, with a
+    /// privileged block for the critic (default: the paper's observation).
+    pub observation: crate::observation::ObservationConfig,
 }
 
 /// What is trained.
@@ -134,6 +137,7 @@ impl Default for EnvConfig {
             adversary: AdversaryBounds::default(),
             terrain: crate::terrain::TerrainConfig::default(),
             height_scan: crate::terrain::HeightScanConfig::default(),
+            observation: crate::observation::ObservationConfig::default(),
         }
     }
 }

@@ -1,5 +1,35 @@
 //! The paper's observation `[v, ω, g, q − q_nominal, q̇, a_prev, c]` for a robot with n motors, and optionally a
 //! height scan after it: one layout that the env writes, the mirror maps permute and the ONNX export documents.
+//! Beyond the paper (the velocity-free observation of its future work): `v` may be left out, earlier frames of
+//! proprioception may follow, and privileged values for the critic may close the row (the actor reads the row
+//! up to them).
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// The observation's options beyond the paper (`[env.observation]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ObservationConfig {
+    /// The policy reads the base's linear velocity (the paper). false: it does not — no robot measures it.
+    pub base_velocity: bool,
+    /// Earlier frames of proprioception (ω, g, q − q_nominal, q̇, a_prev) after the current observation, newest
+    /// first.
+    pub history: usize,
+}
+
+impl Default for ObservationConfig {
+    fn default() -> Self {
+        ObservationConfig { base_velocity: true, history: 0 }
+    }
+}
+
+impl ObservationConfig {
+    /// `layout` with these options.
+    pub fn layout(&self, layout: ObsLayout) -> ObsLayout {
+        layout.with_proprioception(self.base_velocity, self.history, false)
+    }
+}
 
 /// The blocks of the observation, in order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -20,6 +50,10 @@ pub enum Block {
     Command,
     /// Ground heights around the robot (`[env.height_scan]`; none by default: the paper's policy is blind).
     HeightScan,
+    /// Earlier frames of proprioception, newest first, each `[ω, g, q − q_nominal, q̇, a_prev]` (none by default).
+    History,
+    /// The base's true linear velocity, for the critic only (asymmetric actor–critic; none by default).
+    PrivilegedLinVel,
 }
 
 /// How the XZ-plane mirror acts on a block.
@@ -35,10 +69,12 @@ pub enum Mirror {
     Command,
     /// A scan grid: points swap with their mirror images across the robot's XZ plane.
     Scan,
+    /// Frames of proprioception, each mirrored as its blocks are.
+    History,
 }
 
 impl Block {
-    pub const ALL: [Block; 8] = [
+    pub const ALL: [Block; 10] = [
         Block::LinVel,
         Block::AngVel,
         Block::Gravity,
@@ -47,7 +83,13 @@ impl Block {
         Block::LastAction,
         Block::Command,
         Block::HeightScan,
+        Block::History,
+        Block::PrivilegedLinVel,
     ];
+
+    /// The blocks of one frame of proprioception (what `History` repeats), in order.
+    pub const PROPRIOCEPTION: [Block; 5] =
+        [Block::AngVel, Block::Gravity, Block::MotorPos, Block::MotorVel, Block::LastAction];
 
     /// The name the ONNX metadata gives the block.
     pub fn name(self) -> &'static str {
@@ -60,42 +102,66 @@ impl Block {
             Block::LastAction => "previous_action",
             Block::Command => "command_vx_vy_wz",
             Block::HeightScan => "height_scan",
+            Block::History => "proprioception_history",
+            Block::PrivilegedLinVel => "privileged_base_linear_velocity",
         }
     }
 
     pub fn mirror(self) -> Mirror {
         match self {
-            Block::LinVel | Block::Gravity => Mirror::Vector,
+            Block::LinVel | Block::Gravity | Block::PrivilegedLinVel => Mirror::Vector,
             Block::AngVel => Mirror::PseudoVector,
             Block::MotorPos | Block::MotorVel | Block::LastAction => Mirror::Motors,
             Block::Command => Mirror::Command,
             Block::HeightScan => Mirror::Scan,
+            Block::History => Mirror::History,
         }
     }
 }
 
 /// Offsets and sizes of the blocks for a robot with `n_motors` motors and a height scan of `scan` = (points along
-/// x, points along y), x-major (0 × 0: no scan).
+/// x, points along y), x-major (0 × 0: no scan); with or without the base velocity, with `history` earlier frames
+/// and the privileged block.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ObsLayout {
     pub n_motors: usize,
     pub scan: (usize, usize),
+    /// The policy reads the base's linear velocity (the paper's observation; false: velocity-free).
+    pub base_velocity: bool,
+    /// Earlier frames of proprioception after the current observation.
+    pub history: usize,
+    /// The critic's privileged block closes the row.
+    pub privileged: bool,
 }
 
 impl ObsLayout {
+    /// The paper's observation.
     pub const fn new(n_motors: usize) -> Self {
-        ObsLayout { n_motors, scan: (0, 0) }
+        ObsLayout { n_motors, scan: (0, 0), base_velocity: true, history: 0, privileged: false }
     }
 
     /// The same with a height scan of `nx` × `ny` points after the paper's blocks.
     pub const fn with_scan(self, (nx, ny): (usize, usize)) -> Self {
-        ObsLayout { n_motors: self.n_motors, scan: (nx, ny) }
+        ObsLayout { scan: (nx, ny), ..self }
+    }
+
+    /// The same with (or without) the base velocity, `history` earlier frames and the privileged block.
+    pub const fn with_proprioception(self, base_velocity: bool, history: usize, privileged: bool) -> Self {
+        ObsLayout { base_velocity, history, privileged, ..self }
+    }
+
+    /// Values in one frame of proprioception.
+    pub const fn frame(&self) -> usize {
+        6 + 3 * self.n_motors
     }
 
     pub const fn size(&self, b: Block) -> usize {
         match b {
+            Block::LinVel if !self.base_velocity => 0,
+            Block::PrivilegedLinVel if !self.privileged => 0,
             Block::MotorPos | Block::MotorVel | Block::LastAction => self.n_motors,
             Block::HeightScan => self.scan.0 * self.scan.1,
+            Block::History => self.history * self.frame(),
             _ => 3,
         }
     }
@@ -106,22 +172,41 @@ impl ObsLayout {
         (0..nx).flat_map(|i| (0..ny).map(move |j| i * ny + (ny - 1 - j))).collect()
     }
 
+    /// Where block `b` starts: the sizes of the blocks before it in `Block::ALL`.
     pub const fn offset(&self, b: Block) -> usize {
-        let n = self.n_motors;
-        match b {
-            Block::LinVel => 0,
-            Block::AngVel => 3,
-            Block::Gravity => 6,
-            Block::MotorPos => 9,
-            Block::MotorVel => 9 + n,
-            Block::LastAction => 9 + 2 * n,
-            Block::Command => 9 + 3 * n,
-            Block::HeightScan => 12 + 3 * n,
+        let mut at = 0;
+        let mut k = 0;
+        while k < Block::ALL.len() {
+            if Block::ALL[k] as usize == b as usize {
+                return at;
+            }
+            at += self.size(Block::ALL[k]);
+            k += 1;
         }
+        at
     }
 
+    /// The whole row (the critic's input).
     pub const fn dim(&self) -> usize {
-        12 + 3 * self.n_motors + self.scan.0 * self.scan.1
+        self.offset(Block::PrivilegedLinVel) + self.size(Block::PrivilegedLinVel)
+    }
+
+    /// The actor's part of the row: everything before the privileged block.
+    pub const fn actor_dim(&self) -> usize {
+        self.offset(Block::PrivilegedLinVel)
+    }
+
+    /// (block, offset within a frame, size) of each block of one history frame.
+    pub fn frame_blocks(&self) -> Vec<(Block, usize, usize)> {
+        let mut at = 0;
+        Block::PROPRIOCEPTION
+            .iter()
+            .map(|&b| {
+                let r = (b, at, self.size(b));
+                at += r.2;
+                r
+            })
+            .collect()
     }
 
     /// (block, offset, size) of every block the observation has, in order.
@@ -145,6 +230,27 @@ mod tests {
             }
             assert_eq!(next, l.dim());
         }
+    }
+
+    #[test]
+    fn the_paper_layout_is_unchanged_and_the_velocity_free_layout_tiles_with_history_and_privileged() {
+        let paper = ObsLayout::new(10);
+        assert_eq!((paper.dim(), paper.actor_dim(), paper.offset(Block::Command)), (42, 42, 39));
+        assert_eq!(paper.offset(Block::HeightScan), 42);
+        let free = ObsLayout::new(10).with_proprioception(false, 4, true);
+        assert_eq!(free.offset(Block::AngVel), 0, "no velocity block");
+        assert_eq!(free.frame(), 36);
+        assert_eq!(free.offset(Block::History), 39);
+        assert_eq!(free.actor_dim(), 39 + 4 * 36);
+        assert_eq!(free.dim(), free.actor_dim() + 3);
+        let mut next = 0;
+        for (_, offset, size) in free.with_scan((3, 3)).blocks() {
+            assert_eq!(offset, next);
+            next += size;
+        }
+        assert_eq!(next, free.with_scan((3, 3)).dim());
+        let frame: usize = free.frame_blocks().iter().map(|b| b.2).sum();
+        assert_eq!(frame, free.frame());
     }
 
     #[test]

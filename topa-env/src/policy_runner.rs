@@ -60,10 +60,11 @@ impl PolicyRunner {
             None => (trained_on.clone(), trained_model),
         };
         let n = robot.n_motors();
-        // The observation the policy was trained on: the paper's, and a height scan if its config had one.
+        // The observation the policy was trained on: the paper's, a height scan if its config had one, and the
+        // options of `[env.observation]` (no base velocity, earlier frames).
         let trained = crate::EnvConfig::from_table(&m.provenance.config.env)
             .map_err(|e| refuse(format!("its training config: {e}")))?;
-        let layout = ObsLayout::new(n).with_scan(trained.height_scan.grid());
+        let layout = trained.observation.layout(ObsLayout::new(n).with_scan(trained.height_scan.grid()));
         if m.obs_dim != layout.dim() || m.action_dim != n {
             return Err(refuse(format!(
                 "a {}→{} policy cannot drive {} ({} observations → {n} motor targets)",
@@ -162,9 +163,21 @@ impl PolicyRunner {
         self.obs_buf.clear();
         self.obs_buf.extend_from_slice(obs);
         let mut tmp = vec![0.0f32; n];
+        // The motor blocks of the current frame and of every earlier one.
+        let frames = (0..=l.history).map(|f| if f == 0 { 0 } else { l.offset(Block::History) + (f - 1) * l.frame() });
+        let starts: Vec<usize> = frames
+            .flat_map(|at| {
+                [Block::MotorPos, Block::MotorVel, Block::LastAction].map(|b| {
+                    if at == 0 {
+                        l.offset(b)
+                    } else {
+                        at + l.offset(b) - l.offset(Block::AngVel)
+                    }
+                })
+            })
+            .collect();
         for row in self.obs_buf.chunks_exact_mut(l.dim()) {
-            for block in [Block::MotorPos, Block::MotorVel, Block::LastAction] {
-                let at = l.offset(block);
+            for &at in &starts {
                 apply(j, &row[at..at + n], &mut tmp);
                 row[at..at + n].copy_from_slice(&tmp);
             }

@@ -16,15 +16,26 @@ const CMD_SIGN: [f32; 3] = [1.0, -1.0, -1.0];
 pub fn for_layout(layout: &ObsLayout, motor_perm: &[usize], motor_sign: &[f32]) -> Symmetry {
     let id3 = [0, 1, 2];
     let mut obs = SignedPermutation::identity(layout.dim());
+    let put = |obs: &mut SignedPermutation, mirror: Mirror, offset: usize| match mirror {
+        Mirror::Vector => obs.set_block(offset, &id3, &VEC_SIGN),
+        Mirror::PseudoVector => obs.set_block(offset, &id3, &PSEUDO_SIGN),
+        Mirror::Command => obs.set_block(offset, &id3, &CMD_SIGN),
+        Mirror::Motors => obs.set_block(offset, motor_perm, motor_sign),
+        Mirror::Scan => {
+            let perm = layout.scan_mirror();
+            obs.set_block(offset, &perm, &vec![1.0; perm.len()]);
+        }
+        Mirror::History => unreachable!("a history frame holds proprioception blocks only"),
+    };
     for (block, offset, _) in layout.blocks() {
-        match block.mirror() {
-            Mirror::Vector => obs.set_block(offset, &id3, &VEC_SIGN),
-            Mirror::PseudoVector => obs.set_block(offset, &id3, &PSEUDO_SIGN),
-            Mirror::Command => obs.set_block(offset, &id3, &CMD_SIGN),
-            Mirror::Motors => obs.set_block(offset, motor_perm, motor_sign),
-            Mirror::Scan => {
-                let perm = layout.scan_mirror();
-                obs.set_block(offset, &perm, &vec![1.0; perm.len()]);
+        if block.mirror() != Mirror::History {
+            put(&mut obs, block.mirror(), offset);
+            continue;
+        }
+        // Each earlier frame is mirrored as the current frame's blocks are.
+        for f in 0..layout.history {
+            for (b, at, _) in layout.frame_blocks() {
+                put(&mut obs, b.mirror(), offset + f * layout.frame() + at);
             }
         }
     }

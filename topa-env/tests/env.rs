@@ -312,6 +312,50 @@ fn a_latency_range_draws_each_episodes_delay_within_it() {
     assert!(cfg.validate().unwrap_err().to_string().contains("action_physics_steps_max"));
 }
 
+/// The velocity-free observation with 3 earlier frames (`[env.observation]`).
+fn velocity_free(history: usize) -> EnvConfig {
+    let mut c = quiet(ModelKind::Closed);
+    c.observation = topa_env::observation::ObservationConfig { base_velocity: false, history };
+    c
+}
+
+#[test]
+fn a_velocity_free_observation_carries_the_earlier_frames_newest_first() {
+    let mut e = env(velocity_free(3), 2);
+    let frame = 6 + 3 * 10;
+    assert_eq!(e.obs_dim(), 6 + 3 * 10 + 3 + 3 * frame, "ω, g, q, q̇, a, command, then three frames; no velocity");
+    let mut obs = vec![f32::NAN; e.obs_dim()];
+    e.reset(&mut obs).unwrap();
+    let current = |o: &[f32]| o[..frame].to_vec(); // the frame starts the row when the velocity is left out
+    let hist = |o: &[f32], k: usize| o[39 + k * frame..39 + (k + 1) * frame].to_vec();
+    for k in 0..3 {
+        assert_eq!(hist(&obs, k), current(&obs), "a new episode's earlier frames are its first");
+    }
+    let mut seen = vec![current(&obs)];
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    for _ in 0..6 {
+        let act: Vec<f32> = (0..10).map(|_| rng.random_range(-0.5..0.5)).collect();
+        e.step(&act, &mut obs);
+        for k in 0..3 {
+            let back = seen.len().saturating_sub(k + 1);
+            assert_eq!(hist(&obs, k), seen[back], "frame {k} is the observation {} step(s) ago", k + 1);
+        }
+        seen.push(current(&obs));
+    }
+    // The mirror maps every earlier frame as it maps the current one.
+    let sym = e.symmetry().unwrap();
+    assert!(sym.obs.is_involution());
+    for k in 0..3 {
+        for i in 0..frame {
+            let (at, now) = (39 + k * frame + i, i);
+            assert_eq!(sym.obs.perm[at] - (39 + k * frame), sym.obs.perm[now], "frame {k}, value {i}");
+            assert_eq!(sym.obs.sign[at], sym.obs.sign[now]);
+        }
+    }
+    // A restored batch continues bit for bit, its frames included.
+    snapshot_round_trip(&velocity_free(3));
+}
+
 #[test]
 fn pushes_kick_the_base_by_the_configured_speed() {
     let mut pushed = quiet(ModelKind::Closed);

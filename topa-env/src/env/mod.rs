@@ -10,6 +10,7 @@ use rand_chacha::ChaCha8Rng;
 
 mod ground;
 mod observe;
+use observe::History;
 mod randomize;
 mod snapshot;
 
@@ -80,6 +81,8 @@ pub struct RobotEnv {
     command_override: Option<[f64; 3]>,
     perturbation: Perturbation,
     last_action: Vec<f64>,
+    /// Earlier frames of proprioception as observed, newest first (`[env.observation] history`).
+    history: Vec<f32>,
     air_time: [f64; 2],
     /// Time each foot has been in contact without a break, s.
     contact_time: [f64; 2],
@@ -169,7 +172,8 @@ impl RobotEnv {
         };
         Ok(RobotEnv {
             data: Data::new(model)?,
-            layout: idx.obs_layout().with_scan(cfg.height_scan.grid()),
+            layout: cfg.observation.layout(idx.obs_layout().with_scan(cfg.height_scan.grid())),
+            history: vec![0.0; cfg.observation.history * idx.obs_layout().frame()],
             action: vec![0.0; n],
             target: vec![0.0; n],
             motors,
@@ -270,7 +274,7 @@ impl RobotEnv {
         self.data.forward()?;
         state::read_into(&self.data, &self.idx, &mut self.robot_state);
         let sensed = self.sim2sim.as_ref().map(|s| s.latest().clone());
-        self.write_obs(obs, sensed.as_ref());
+        self.write_obs(obs, sensed.as_ref(), History::Fill);
         Ok(())
     }
 
@@ -422,7 +426,7 @@ impl Task for RobotEnv {
             }
             None => None,
         };
-        self.write_obs(obs, sensed.as_ref());
+        self.write_obs(obs, sensed.as_ref(), History::Fill);
         Ok(())
     }
 
@@ -516,7 +520,7 @@ impl Task for RobotEnv {
             self.next_push += self.steps_of(self.cfg.push.interval_s);
         }
         let sensed = self.sim2sim.as_mut().map(|s| s.sensed());
-        self.write_obs(obs, sensed.as_ref());
+        self.write_obs(obs, sensed.as_ref(), History::Shift);
         let finite = reward.is_finite() && obs.iter().all(|x| x.is_finite());
         StepOutcome { reward, done: fell || time_out || !finite, time_out, diverged: !finite }
     }

@@ -8,9 +8,18 @@ use super::RobotEnv;
 use crate::observation::Block;
 use crate::sim2sim::Sensed;
 
+/// What the earlier frames become when an observation is written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum History {
+    /// A new start: every earlier frame is the current one.
+    Fill,
+    /// A step: the frame observed last becomes the newest earlier frame.
+    Shift,
+}
+
 impl RobotEnv {
     /// The observation: the simulator's state, or with realistic sim2sim what the robot's computer `sensed`.
-    pub(super) fn write_obs(&mut self, obs: &mut [f32], sensed: Option<&Sensed>) {
+    pub(super) fn write_obs(&mut self, obs: &mut [f32], sensed: Option<&Sensed>, history: History) {
         let s = &self.robot_state;
         let (lin_vel, ang_vel, gravity, pos, vel) = match sensed {
             Some(x) => (x.lin_vel, x.ang_vel, x.gravity, &x.motor_pos, &x.motor_vel),
@@ -20,10 +29,12 @@ impl RobotEnv {
         let on = n.enabled;
         let rng = &mut self.rng;
         let mut noise = |scale: f64| if on && scale > 0.0 { rng.random_range(-scale..=scale) } else { 0.0 };
-        let l = &self.layout;
+        let l = self.layout;
         let (lv, av, gr) = (l.offset(Block::LinVel), l.offset(Block::AngVel), l.offset(Block::Gravity));
         for i in 0..3 {
-            obs[lv + i] = (lin_vel[i] + noise(n.lin_vel)) as f32;
+            if l.base_velocity {
+                obs[lv + i] = (lin_vel[i] + noise(n.lin_vel)) as f32;
+            }
             obs[av + i] = (ang_vel[i] + noise(n.ang_vel)) as f32;
         }
         let off = self.perturbation.gravity_offset;
@@ -47,6 +58,39 @@ impl RobotEnv {
             obs[co + i] = c[i] as f32;
         }
         self.write_height_scan(obs);
+        self.write_history(obs, history);
+        if l.privileged {
+            // The simulator's truth, whatever the robot sensed: the critic's input only.
+            let at = l.offset(Block::PrivilegedLinVel);
+            for i in 0..3 {
+                obs[at + i] = self.robot_state.lin_vel[i] as f32;
+            }
+        }
+    }
+
+    /// The earlier frames after the current observation; then the current frame joins them.
+    fn write_history(&mut self, obs: &mut [f32], history: History) {
+        let l = self.layout;
+        if l.history == 0 {
+            return;
+        }
+        let (frame, now) = (l.frame(), l.offset(Block::AngVel));
+        let current = now..now + frame;
+        match history {
+            History::Fill => {
+                for f in 0..l.history {
+                    self.history[f * frame..(f + 1) * frame].copy_from_slice(&obs[current.clone()]);
+                }
+                let at = l.offset(Block::History);
+                obs[at..at + l.history * frame].copy_from_slice(&self.history);
+            }
+            History::Shift => {
+                let at = l.offset(Block::History);
+                obs[at..at + l.history * frame].copy_from_slice(&self.history);
+                self.history.copy_within(0..(l.history - 1) * frame, frame);
+                self.history[..frame].copy_from_slice(&obs[current]);
+            }
+        }
     }
 
     /// The height scan's values (`[env.height_scan]`), after the paper's blocks: at each point of the grid in the

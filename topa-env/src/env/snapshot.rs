@@ -32,6 +32,7 @@ impl RobotEnv {
         f.extend_from_slice(&self.last_action);
         f.extend_from_slice(&self.air_time);
         f.extend_from_slice(&self.contact_time);
+        f.extend(self.history.iter().map(|&x| f64::from(x))); // empty without `[env.observation] history`
         u.extend([self.step_count as u64, self.next_resample as u64, self.next_push as u64, o.is_some() as u64]);
         u.extend(self.last_contact.map(|c| c as u64));
         u.push(self.experience_steps);
@@ -126,6 +127,10 @@ impl RobotEnv {
         self.last_action.copy_from_slice(take(n)?);
         self.air_time.copy_from_slice(take(2)?);
         self.contact_time.copy_from_slice(take(2)?);
+        let h = self.history.len();
+        for (d, v) in self.history.iter_mut().zip(take(h)?) {
+            *d = *v as f32;
+        }
         let need = 7 + task::RNG_WORDS;
         let w = u.get(..need).ok_or_else(|| EnvError::Shape("env snapshot too short".into()))?;
         self.step_count = w[0] as usize;
