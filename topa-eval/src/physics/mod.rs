@@ -126,6 +126,12 @@ impl CaseResult {
             && self.push_falls == 0
     }
 
+    /// Whether the policy stayed up: no tracking run and no push fell, and the simulation ran to its end (the
+    /// tracking-precision and stand-still bars aside).
+    pub fn no_fall(&self) -> bool {
+        self.failure.is_none() && self.tracking_falls == 0 && self.push_falls == 0
+    }
+
     /// The bars it misses, in words ("" when survived).
     pub fn missed(&self) -> String {
         if let Some(f) = &self.failure {
