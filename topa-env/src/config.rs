@@ -63,8 +63,8 @@ pub struct EnvConfig {
     pub terrain: crate::terrain::TerrainConfig,
     /// Ground heights around the robot as extra observation values (default off: the paper's blind policy).
     pub height_scan: crate::terrain::HeightScanConfig,
-    /// What the policy reads beyond the paper's blocks: without the base velocity, with earlier frames, with a
-    /// privileged block for the critic (default: the paper's observation).
+    /// What the policy reads beyond the paper's blocks: without the base velocity, with earlier frames (default:
+    /// the paper's observation).
     pub observation: crate::observation::ObservationConfig,
 }
 
@@ -377,6 +377,7 @@ impl Default for ObsNoiseConfig {
     }
 }
 
+use crate::domain_rand::check_range;
 pub use crate::domain_rand::DomainRandConfig;
 
 /// Random pushes: the base's horizontal velocity gets a kick of random direction and magnitude.
@@ -432,13 +433,6 @@ impl Default for TerminationConfig {
     fn default() -> Self {
         TerminationConfig { enabled: true, min_base_height: 0.3, max_tilt: 1.0, body_contact: true }
     }
-}
-
-fn check_range(name: &str, r: [f64; 2]) -> Result<()> {
-    if !(r[0].is_finite() && r[1].is_finite() && r[0] <= r[1]) {
-        return Err(EnvError::Config(format!("{name} must be [low, high] with low ≤ high, got {r:?}")));
-    }
-    Ok(())
 }
 
 fn check_positive(name: &str, v: f64) -> Result<()> {

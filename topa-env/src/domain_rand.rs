@@ -59,8 +59,8 @@ impl DomainRandConfig {
     }
 }
 
-/// A `[low, high]` range of finite values.
-fn check_range(name: &str, r: [f64; 2]) -> Result<()> {
+/// A `[low, high]` range of finite values (every range of the env config).
+pub(crate) fn check_range(name: &str, r: [f64; 2]) -> Result<()> {
     if !(r[0].is_finite() && r[1].is_finite() && r[0] <= r[1]) {
         return Err(EnvError::Config(format!("{name} must be [low, high] with low ≤ high, got {r:?}")));
     }

@@ -163,18 +163,11 @@ impl PolicyRunner {
         self.obs_buf.clear();
         self.obs_buf.extend_from_slice(obs);
         let mut tmp = vec![0.0f32; n];
-        // The motor blocks of the current frame and of every earlier one.
-        let frames = (0..=l.history).map(|f| if f == 0 { 0 } else { l.offset(Block::History) + (f - 1) * l.frame() });
+        // The motor blocks of the current frame (it starts at ω) and of every earlier one.
+        let now = l.offset(Block::AngVel);
+        let frames = std::iter::once(now).chain((0..l.history).map(|f| l.offset(Block::History) + f * l.frame()));
         let starts: Vec<usize> = frames
-            .flat_map(|at| {
-                [Block::MotorPos, Block::MotorVel, Block::LastAction].map(|b| {
-                    if at == 0 {
-                        l.offset(b)
-                    } else {
-                        at + l.offset(b) - l.offset(Block::AngVel)
-                    }
-                })
-            })
+            .flat_map(|at| [Block::MotorPos, Block::MotorVel, Block::LastAction].map(|b| at + l.offset(b) - now))
             .collect();
         for row in self.obs_buf.chunks_exact_mut(l.dim()) {
             for &at in &starts {

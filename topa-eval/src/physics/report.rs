@@ -111,8 +111,11 @@ pub fn scores(r: &PhysicsReport, group: Group, held: fn(&CaseResult) -> bool) ->
     Scores { runs, trials: None }
 }
 
+/// A measure of the report: its name and whether a case meets it.
+type Measure = (&'static str, fn(&CaseResult) -> bool);
+
 /// The two measures of the report: every bar met, and no fall.
-const MEASURES: [(&str, fn(&CaseResult) -> bool); 2] =
+const MEASURES: [Measure; 2] =
     [("perturbations survived", CaseResult::survived), ("perturbations without a fall", CaseResult::no_fall)];
 
 /// Short labels of the entries, "C+A 2" for the group's second seed.
