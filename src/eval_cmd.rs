@@ -4,16 +4,12 @@
 use anyhow::Result;
 
 use crate::cli::{Common, EvalCmd};
+use crate::print::print_json;
 use topa_env::policy_runner::PolicyRunner;
 use topa_eval::{
     course, course_map, endurance, heatmaps, noise, progress, progress_plot, push, report, terrain, terrain_map,
     tracking,
 };
-
-pub(crate) fn print_json<T: serde::Serialize>(v: &T) -> Result<()> {
-    println!("{}", serde_json::to_string_pretty(v)?);
-    Ok(())
-}
 
 pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
     let s = c.settings()?;

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 
 use crate::cli::{Common, Groups};
-use crate::eval_cmd::print_json;
+use crate::print::print_json;
 use topa_eval::ablate::{self, Extent};
 use topa_eval::{field, physics, terrain_report};
 
@@ -76,7 +76,7 @@ pub(crate) fn report_physics(mut r: physics::report::PhysicsReport, fragility: b
     if fragility && r.fragility.is_empty() {
         r.fragility = physics::fragility::search(&r)?;
     }
-    let md = physics::report::write(&r, &c.out)?;
+    let md = physics::render::write(&r, &c.out)?;
     if c.json {
         return print_json(&r);
     }

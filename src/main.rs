@@ -4,6 +4,7 @@
 mod cli;
 mod eval_cmd;
 mod groups_cmd;
+mod print;
 mod robot_cmd;
 mod sysid_cmd;
 mod train_cmd;

@@ -56,6 +56,15 @@ pub enum Block {
     PrivilegedLinVel,
 }
 
+/// What the earlier frames become when an observation is written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HistoryUpdate {
+    /// A new start: every earlier frame is the current one.
+    Fill,
+    /// A step: the frame observed last becomes the newest earlier frame.
+    Shift,
+}
+
 /// How the XZ-plane mirror acts on a block.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mirror {

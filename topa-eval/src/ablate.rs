@@ -255,7 +255,7 @@ fn physics_summary(p: &super::physics::report::PhysicsReport) -> String {
          survived when every tracking and push bar holds there.\n\n{}",
         p.matrix.source,
         p.protocol.describe(),
-        super::physics::report::groups_markdown(p)
+        super::physics::render::groups_markdown(p)
     )
 }
 

@@ -10,14 +10,13 @@ use rand_chacha::ChaCha8Rng;
 
 mod ground;
 mod observe;
-use observe::History;
 mod randomize;
 mod snapshot;
 
 use crate::config::EnvConfig;
 use crate::error::{EnvError, Result};
 use crate::indices::RobotIndices;
-use crate::observation::ObsLayout;
+use crate::observation::{HistoryUpdate, ObsLayout};
 use crate::perturb::Perturbation;
 use crate::rewards::{self, MotorInputs, RewardInputs, N_TERMS, TERM_NAMES};
 use crate::sim2sim::Sim2Sim;
@@ -274,7 +273,7 @@ impl RobotEnv {
         self.data.forward()?;
         state::read_into(&self.data, &self.idx, &mut self.robot_state);
         let sensed = self.sim2sim.as_ref().map(|s| s.latest().clone());
-        self.write_obs(obs, sensed.as_ref(), History::Fill);
+        self.write_obs(obs, sensed.as_ref(), HistoryUpdate::Fill);
         Ok(())
     }
 
@@ -426,7 +425,7 @@ impl Task for RobotEnv {
             }
             None => None,
         };
-        self.write_obs(obs, sensed.as_ref(), History::Fill);
+        self.write_obs(obs, sensed.as_ref(), HistoryUpdate::Fill);
         Ok(())
     }
 
@@ -520,7 +519,7 @@ impl Task for RobotEnv {
             self.next_push += self.steps_of(self.cfg.push.interval_s);
         }
         let sensed = self.sim2sim.as_mut().map(|s| s.sensed());
-        self.write_obs(obs, sensed.as_ref(), History::Shift);
+        self.write_obs(obs, sensed.as_ref(), HistoryUpdate::Shift);
         let finite = reward.is_finite() && obs.iter().all(|x| x.is_finite());
         StepOutcome { reward, done: fell || time_out || !finite, time_out, diverged: !finite }
     }

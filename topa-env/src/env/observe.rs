@@ -5,21 +5,12 @@ use nalgebra::Vector3;
 use rand::RngExt;
 
 use super::RobotEnv;
-use crate::observation::Block;
+use crate::observation::{Block, HistoryUpdate};
 use crate::sim2sim::Sensed;
-
-/// What the earlier frames become when an observation is written.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum History {
-    /// A new start: every earlier frame is the current one.
-    Fill,
-    /// A step: the frame observed last becomes the newest earlier frame.
-    Shift,
-}
 
 impl RobotEnv {
     /// The observation: the simulator's state, or with realistic sim2sim what the robot's computer `sensed`.
-    pub(super) fn write_obs(&mut self, obs: &mut [f32], sensed: Option<&Sensed>, history: History) {
+    pub(super) fn write_obs(&mut self, obs: &mut [f32], sensed: Option<&Sensed>, history: HistoryUpdate) {
         let s = &self.robot_state;
         let (lin_vel, ang_vel, gravity, pos, vel) = match sensed {
             Some(x) => (x.lin_vel, x.ang_vel, x.gravity, &x.motor_pos, &x.motor_vel),
@@ -69,7 +60,7 @@ impl RobotEnv {
     }
 
     /// The earlier frames after the current observation; then the current frame joins them.
-    fn write_history(&mut self, obs: &mut [f32], history: History) {
+    fn write_history(&mut self, obs: &mut [f32], history: HistoryUpdate) {
         let l = self.layout;
         if l.history == 0 {
             return;
@@ -77,14 +68,14 @@ impl RobotEnv {
         let (frame, now) = (l.frame(), l.offset(Block::AngVel));
         let current = now..now + frame;
         match history {
-            History::Fill => {
+            HistoryUpdate::Fill => {
                 for f in 0..l.history {
                     self.history[f * frame..(f + 1) * frame].copy_from_slice(&obs[current.clone()]);
                 }
                 let at = l.offset(Block::History);
                 obs[at..at + l.history * frame].copy_from_slice(&self.history);
             }
-            History::Shift => {
+            HistoryUpdate::Shift => {
                 let at = l.offset(Block::History);
                 obs[at..at + l.history * frame].copy_from_slice(&self.history);
                 self.history.copy_within(0..(l.history - 1) * frame, frame);

@@ -6,9 +6,11 @@
 //! simulation that diverges is a case failed, with MuJoCo's reason. The score of a policy is the share of the
 //! perturbed cases (all but nominal) it survives; the groups' scores and their intervals are in `report`.
 
+pub mod flip;
 pub mod fragility;
 pub mod heatmap;
 pub mod matrix;
+pub mod render;
 pub mod report;
 
 use serde::{Deserialize, Serialize};
