@@ -53,6 +53,8 @@ fn constant_policy(dir: &Path, name: &str, model: ModelKind, action: [f32; N_MOT
         action_scale: env.action_scale,
         action_clip: env.action_clip,
         policy_dt: env.policy_dt(),
+        actor_view: None,
+        estimator_hidden: None,
         weights: String::new(),
         weights_crc32: 0,
         provenance: Provenance {
@@ -67,7 +69,7 @@ fn constant_policy(dir: &Path, name: &str, model: ModelKind, action: [f32; N_MOT
             segments: vec![],
         },
     };
-    policy_file::save(&dir.join(name), &mlp, &Normalizer::new(42, None), meta).unwrap()
+    policy_file::save(&dir.join(name), &mlp, None, &Normalizer::new(42, None), meta).unwrap()
 }
 
 /// The action that sends the closed model's keyframe targets (nominal pose + gravity compensation): it stands.

@@ -68,7 +68,14 @@ fn a_policy_forked_with_added_inputs_acts_as_its_source_then_learns_them() {
         t.policy.normalizer.frozen = true;
         let (mut norm, mut a, mut m, mut lp, mut v) =
             (vec![0.0; o.len()], vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let out = ActOutput { obs_norm: &mut norm, actions: &mut a, means: &mut m, log_probs: &mut lp, values: &mut v };
+        let out = ActOutput {
+            obs_norm: &mut norm,
+            actions: &mut a,
+            means: &mut m,
+            log_probs: &mut lp,
+            values: &mut v,
+            estimates: &mut [],
+        };
         t.policy.act(o, &mut ChaCha8Rng::seed_from_u64(1), false, out).unwrap();
         t.policy.normalizer.frozen = false;
         (m, v)

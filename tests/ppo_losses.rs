@@ -6,6 +6,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use topa_train::load_config;
 use trainer::actor_critic::ActorCritic;
+use trainer::actor_view::ActorView;
 use trainer::config::{LossConfig, PpoConfig, TrainConfig};
 use trainer::ppo::{self, Agent, Batch};
 use trainer::storage::Rollout;
@@ -15,8 +16,8 @@ mod topa;
 
 fn agent(seed: u64, sym: bool, losses: LossConfig) -> Agent {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let ac = ActorCritic::new(42, 10, &[16, 8], &[16, 8], 0.7, &mut rng).unwrap();
-    Agent::new(ac, PpoConfig::default(), losses, sym.then(topa::symmetry))
+    let ac = ActorCritic::new(ActorView::whole(42), 10, &[16, 8], &[16, 8], &[], 0.7, &mut rng).unwrap();
+    Agent::new(ac, PpoConfig::default(), losses, sym.then(topa::symmetry), 0.0).unwrap()
 }
 
 fn batch(seed: u64, rows: usize) -> Batch {
@@ -26,6 +27,7 @@ fn batch(seed: u64, rows: usize) -> Batch {
         rows,
         mirrored: false,
         obs: v(rows * 42, 1.0),
+        actor_obs: Vec::new(),
         actions: v(rows * 10, 1.0),
         means: v(rows * 10, 0.5),
         log_probs: v(rows, 1.0).iter().map(|x| x - 9.0).collect(),
@@ -161,13 +163,15 @@ fn make_equivariant(a: &Agent, rng: &mut ChaCha8Rng) {
 #[test]
 fn symmetry_loss_is_zero_for_an_equivariant_policy_and_positive_otherwise() {
     let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let ac = ActorCritic::new(42, 10, &[16], &[16], 1.0, &mut rng).unwrap();
+    let ac = ActorCritic::new(ActorView::whole(42), 10, &[16], &[16], &[], 1.0, &mut rng).unwrap();
     let a = Agent::new(
         ac,
         PpoConfig::default(),
         LossConfig { symmetry_coef: 1.0, decay_coef: 0.0, symmetry_augmentation: false },
         Some(topa::symmetry()),
-    );
+        0.0,
+    )
+    .unwrap();
     let b = batch(6, 32);
     let random = term(&a, &b, 3).1;
     assert!(random > 1e-3, "a random network is not symmetric: {random}");
@@ -184,15 +188,17 @@ fn a_mirrored_batch_is_the_batch_and_its_mirror_image() {
     let losses = LossConfig { symmetry_coef: 1.0, decay_coef: 0.0, symmetry_augmentation: true };
     let mut rng = ChaCha8Rng::seed_from_u64(8);
     let a = Agent::new(
-        ActorCritic::new(42, 10, &[16], &[16], 0.7, &mut rng).unwrap(),
+        ActorCritic::new(ActorView::whole(42), 10, &[16], &[16], &[], 0.7, &mut rng).unwrap(),
         PpoConfig::default(),
         losses,
         Some(topa::symmetry()),
-    );
+        0.0,
+    )
+    .unwrap();
     let sym = a.symmetry.clone().unwrap();
     let b = batch(9, 24);
     let mut m = b.clone();
-    m.append_mirror(&sym);
+    m.append_mirror(&sym, &sym.obs);
     assert_eq!((m.rows, m.sampled_rows(), b.sampled_rows()), (48, 24, 24));
     let mut back = vec![0.0; 24 * 42];
     sym.obs.apply_rows(&m.obs[24 * 42..], &mut back);

@@ -11,8 +11,11 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct ObservationConfig {
-    /// The policy reads the base's linear velocity (the paper). false: it does not — no robot measures it.
-    pub base_velocity: bool,
+    /// What the policy knows of the base's linear velocity, which no robot measures: "observed" (the paper: the
+    /// simulator's, or the Kalman filter's in realistic sim2sim), "estimated" (a concurrent estimator learns it
+    /// from the actor's other inputs and the actor reads its estimate) or "none". Without "observed" the critic
+    /// reads the true velocity at the row's end (asymmetric actor–critic).
+    pub base_velocity: BaseVelocity,
     /// Earlier frames of proprioception (ω, g, q − q_nominal, q̇, a_prev) after the current observation, newest
     /// first.
     pub history: usize,
@@ -20,14 +23,36 @@ pub struct ObservationConfig {
 
 impl Default for ObservationConfig {
     fn default() -> Self {
-        ObservationConfig { base_velocity: true, history: 0 }
+        ObservationConfig { base_velocity: BaseVelocity::Observed, history: 0 }
     }
+}
+
+/// What the policy knows of the base's linear velocity (`[env.observation] base_velocity`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum BaseVelocity {
+    /// In the observation (the paper).
+    #[default]
+    Observed,
+    /// Estimated by a network trained beside the policy, from the actor's other inputs.
+    Estimated,
+    /// Not at all.
+    None,
 }
 
 impl ObservationConfig {
     /// `layout` with these options.
     pub fn layout(&self, layout: ObsLayout) -> ObsLayout {
-        layout.with_proprioception(self.base_velocity, self.history, false)
+        let observed = self.base_velocity == BaseVelocity::Observed;
+        layout.with_proprioception(observed, self.history, !observed)
+    }
+
+    /// What the actor reads of a row of `layout` (this config's): the row up to the privileged block, and with an
+    /// estimated velocity the estimate of that block.
+    pub fn actor_view(&self, layout: &ObsLayout) -> trainer::actor_view::ActorView {
+        let at = layout.offset(Block::PrivilegedLinVel);
+        let estimate = (self.base_velocity == BaseVelocity::Estimated).then(|| at..at + 3);
+        trainer::actor_view::ActorView { obs_dim: layout.dim(), inputs: layout.actor_dim(), estimate }
     }
 }
 

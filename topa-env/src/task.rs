@@ -30,6 +30,10 @@ pub trait Task: Send {
     fn terms(&self) -> &[f64];
     /// The left↔right mirror of observations and actions, if the task has one.
     fn symmetry(&self) -> Option<Symmetry>;
+    /// What the learner's actor reads of the observation row (default: all of it).
+    fn actor_view(&self) -> trainer::actor_view::ActorView {
+        trainer::actor_view::ActorView::whole(self.obs_dim())
+    }
     /// What an adversary may perturb (empty: nothing), in the order of the perturbation vector.
     fn perturbation_channels(&self) -> Vec<PerturbationChannel> {
         Vec::new()

@@ -259,6 +259,9 @@ impl<T: Task> VecEnv for BatchEnv<T> {
     fn symmetry(&self) -> Option<Symmetry> {
         self.tasks[0].symmetry()
     }
+    fn actor_view(&self) -> trainer::actor_view::ActorView {
+        self.tasks[0].actor_view()
+    }
     fn perturbation_channels(&self) -> Vec<PerturbationChannel> {
         self.tasks[0].perturbation_channels()
     }

@@ -7,27 +7,15 @@ use std::sync::Arc;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use topa::{OBS_COMMAND, OBS_DIM, OBS_GRAVITY, OBS_LAST_ACTION, OBS_Q};
-use topa_env::symmetry::mirror_mj_state;
 use topa_env::tasks::{cartpole, CartPole};
 
+#[path = "common/robot_env.rs"]
+mod robot_env;
 #[path = "reference/topa.rs"]
 mod topa;
+use robot_env::{env, mirror_into, quiet, snapshot_round_trip};
 
 use topa_env::{assets, BatchEnv, EnvConfig, ModelKind, RobotEnv, Task, VecEnv};
-
-/// Training config without randomness in the dynamics or the observation.
-fn quiet(kind: ModelKind) -> EnvConfig {
-    let mut c = EnvConfig { robot: kind.spec_path().into(), ..EnvConfig::default() };
-    c.noise.enabled = false;
-    c.domain_rand.enabled = false;
-    c.push.enabled = false;
-    c
-}
-
-fn env(cfg: EnvConfig, seed: u64) -> RobotEnv {
-    let (_, model) = assets::load_robot(&cfg).unwrap();
-    RobotEnv::new(model, Arc::new(cfg), seed, 0).unwrap()
-}
 
 #[test]
 fn observation_layout_at_the_stand_pose() {
@@ -85,15 +73,6 @@ fn standing_still_earns_the_tracking_and_posture_terms() {
     assert_eq!(term("action_rate"), 0.0);
     assert_eq!(term("joint_position_limits"), 0.0);
     assert_eq!(term("feet_air_time"), 0.0, "no touchdown while standing");
-}
-
-/// Mirrors the whole simulation state of `src` into `dst` (same model).
-fn mirror_into(src: &RobotEnv, dst: &mut RobotEnv, obs: &mut [f32]) {
-    let m = src.data().model_arc();
-    let (p, v) = mirror_mj_state(m, src.data().qpos(), src.data().qvel()).unwrap();
-    dst.data_mut().qpos_mut().copy_from_slice(&p);
-    dst.data_mut().qvel_mut().copy_from_slice(&v);
-    dst.refresh(obs).unwrap();
 }
 
 /// Steps a robot and its mirror image with mirrored actions and commands (and, given them, an adversary's
@@ -312,50 +291,6 @@ fn a_latency_range_draws_each_episodes_delay_within_it() {
     assert!(cfg.validate().unwrap_err().to_string().contains("action_physics_steps_max"));
 }
 
-/// The velocity-free observation with 3 earlier frames (`[env.observation]`).
-fn velocity_free(history: usize) -> EnvConfig {
-    let mut c = quiet(ModelKind::Closed);
-    c.observation = topa_env::observation::ObservationConfig { base_velocity: false, history };
-    c
-}
-
-#[test]
-fn a_velocity_free_observation_carries_the_earlier_frames_newest_first() {
-    let mut e = env(velocity_free(3), 2);
-    let frame = 6 + 3 * 10;
-    assert_eq!(e.obs_dim(), 6 + 3 * 10 + 3 + 3 * frame, "ω, g, q, q̇, a, command, then three frames; no velocity");
-    let mut obs = vec![f32::NAN; e.obs_dim()];
-    e.reset(&mut obs).unwrap();
-    let current = |o: &[f32]| o[..frame].to_vec(); // the frame starts the row when the velocity is left out
-    let hist = |o: &[f32], k: usize| o[39 + k * frame..39 + (k + 1) * frame].to_vec();
-    for k in 0..3 {
-        assert_eq!(hist(&obs, k), current(&obs), "a new episode's earlier frames are its first");
-    }
-    let mut seen = vec![current(&obs)];
-    let mut rng = ChaCha8Rng::seed_from_u64(3);
-    for _ in 0..6 {
-        let act: Vec<f32> = (0..10).map(|_| rng.random_range(-0.5..0.5)).collect();
-        e.step(&act, &mut obs);
-        for k in 0..3 {
-            let back = seen.len().saturating_sub(k + 1);
-            assert_eq!(hist(&obs, k), seen[back], "frame {k} is the observation {} step(s) ago", k + 1);
-        }
-        seen.push(current(&obs));
-    }
-    // The mirror maps every earlier frame as it maps the current one.
-    let sym = e.symmetry().unwrap();
-    assert!(sym.obs.is_involution());
-    for k in 0..3 {
-        for i in 0..frame {
-            let (at, now) = (39 + k * frame + i, i);
-            assert_eq!(sym.obs.perm[at] - (39 + k * frame), sym.obs.perm[now], "frame {k}, value {i}");
-            assert_eq!(sym.obs.sign[at], sym.obs.sign[now]);
-        }
-    }
-    // A restored batch continues bit for bit, its frames included.
-    snapshot_round_trip(&velocity_free(3));
-}
-
 #[test]
 fn pushes_kick_the_base_by_the_configured_speed() {
     let mut pushed = quiet(ModelKind::Closed);
@@ -460,27 +395,6 @@ fn snapshot_restore_continues_bit_for_bit() {
     ranged.domain_rand.contact_damping_ratio = [0.3, 1.0];
     for cfg in [EnvConfig::default(), with_estimator, ranged] {
         snapshot_round_trip(&cfg);
-    }
-}
-
-fn snapshot_round_trip(cfg: &EnvConfig) {
-    let cfg = cfg.clone();
-    let mut a = topa_env::vec_env::robot_batch(&cfg, 3, 8, 1).unwrap();
-    a.reset().unwrap();
-    let act = |k: usize| -> Vec<f32> { (0..30).map(|i| ((i * 7 + k * 13) % 11) as f32 / 11.0 - 0.5).collect() };
-    for k in 0..20 {
-        a.step(&act(k)).unwrap();
-    }
-    let snap = a.save_state();
-    let mut b = topa_env::vec_env::robot_batch(&cfg, 3, 12345, 2).unwrap();
-    b.reset().unwrap();
-    b.load_state(&snap).unwrap();
-    assert_eq!(a.obs(), b.obs());
-    for k in 20..60 {
-        a.step(&act(k)).unwrap();
-        b.step(&act(k)).unwrap();
-        assert_eq!(a.obs(), b.obs(), "step {k}");
-        assert_eq!(a.rewards(), b.rewards());
     }
 }
 

@@ -118,19 +118,34 @@ pub fn build(runner: &PolicyRunner, source: &str, motor_targets: bool) -> Result
     let m = &policy.meta;
     let robot = runner.robot();
     let layout = runner.layout();
-    let (n, obs_dim) = (layout.n_motors, layout.dim());
-    if m.obs_dim != obs_dim || m.action_dim != n {
-        bad_file!("{source}: a {}→{} policy cannot drive {} ({obs_dim} → {n})", m.obs_dim, m.action_dim, robot.name);
+    let (n, row) = (layout.n_motors, layout.dim());
+    if m.obs_dim != row || m.action_dim != n {
+        bad_file!("{source}: a {}→{} policy cannot drive {} ({row} → {n})", m.obs_dim, m.action_dim, robot.name);
     }
+    // The graph reads what the actor reads: the row up to the privileged values a robot does not have.
+    let view = policy.view();
+    let obs_dim = view.inputs;
     let (mut nodes, mut inits) = (Vec::new(), Vec::new());
     let mut x = INPUT.to_string();
     let map = runner.joint_map();
     if let Some((j, _)) = map {
-        // Motor-space observation → the joint space the policy was trained in: J on q, q̇ and a_prev.
+        // Motor-space observation → the joint space the policy was trained in: J on q, q̇ and a_prev, in the
+        // current frame and in every earlier one.
+        let motor_blocks: Vec<usize> = [Block::MotorPos, Block::MotorVel, Block::LastAction]
+            .iter()
+            .map(|&b| layout.offset(b))
+            .chain((0..layout.history).flat_map(|k| {
+                let frame = layout.offset(Block::History) + k * layout.frame();
+                layout
+                    .frame_blocks()
+                    .into_iter()
+                    .filter(|(b, _, _)| matches!(b, Block::MotorPos | Block::MotorVel | Block::LastAction))
+                    .map(move |(_, at, _)| frame + at)
+            }))
+            .collect();
         let t = row_map(obs_dim, |e| {
             let mut o = e.to_vec();
-            for b in [Block::MotorPos, Block::MotorVel, Block::LastAction] {
-                let at = layout.offset(b);
+            for &at in &motor_blocks {
                 for i in 0..n {
                     o[at + i] = (0..n).map(|k| j[(i, k)] * e[at + k]).sum();
                 }
@@ -143,34 +158,26 @@ pub fn build(runner: &PolicyRunner, source: &str, motor_targets: bool) -> Result
     }
     // The normaliser in double precision, as the trainer computes it, rounded to float once at the end.
     let (mean, scale) = policy.normalizer_affine();
-    inits.push(tensor_f64("obs_mean", mean));
-    inits.push(tensor_f64("obs_scale", scale));
+    inits.push(tensor_f64("obs_mean", mean[..obs_dim].to_vec()));
+    inits.push(tensor_f64("obs_scale", scale[..obs_dim].to_vec()));
     nodes.push(node("Cast", &[&x], "obs_f64", vec![int_attr("to", DOUBLE as i64)]));
     nodes.push(node("Sub", &["obs_f64", "obs_mean"], "obs_centred", vec![]));
     nodes.push(node("Mul", &["obs_centred", "obs_scale"], "obs_scaled", vec![]));
     nodes.push(node("Cast", &["obs_scaled"], "obs_normalised", vec![int_attr("to", FLOAT as i64)]));
     x = "obs_normalised".into();
-    let layers = &policy.actor().layers;
-    for (i, l) in layers.iter().enumerate() {
-        let (w, b) = (format!("actor.{i}.weight"), format!("actor.{i}.bias"));
-        inits.push(tensor(&w, &[l.out_dim(), l.in_dim()], l.weight.as_tensor().flatten_all()?.to_vec1()?));
-        inits.push(tensor(&b, &[l.out_dim()], l.bias.as_tensor().to_vec1()?));
-        let last = i + 1 == layers.len();
-        let z = if last && map.is_none() { OUTPUT.to_string() } else { format!("actor.{i}.linear") };
-        nodes.push(node("Gemm", &[&x, &w, &b], &z, vec![int_attr("transB", 1)]));
-        x = if last {
-            z
-        } else {
-            let y = format!("actor.{i}.elu");
-            nodes.push(node("Elu", &[&z], &y, vec![float_attr("alpha", 1.0)]));
-            y
-        };
+    if let Some(e) = policy.estimator() {
+        // The concurrent estimator's output (normalised, as the actor read it) follows the observation.
+        mlp_nodes("estimator", &e.layers, &x, "estimate_normalised", &mut nodes, &mut inits)?;
+        nodes.push(node("Concat", &[&x, "estimate_normalised"], "actor_input", vec![int_attr("axis", 1)]));
+        x = "actor_input".into();
     }
+    let out = if map.is_none() { OUTPUT } else { "action_joint" };
+    mlp_nodes("actor", &policy.actor().layers, &x, out, &mut nodes, &mut inits)?;
     if let Some((_, inv)) = map {
         // Joint-space action → motor space: J⁻¹.
         let t = row_map(n, |e| (0..n).map(|i| (0..n).map(|k| inv[(i, k)] * e[k]).sum()).collect());
         inits.push(tensor("joint_to_motor_action", &[n, n], t));
-        nodes.push(node("MatMul", &[&x, "joint_to_motor_action"], OUTPUT, vec![]));
+        nodes.push(node("MatMul", &[out, "joint_to_motor_action"], OUTPUT, vec![]));
     }
     let mut outputs = vec![value_info(OUTPUT, n)];
     let nominal = runner.nominal_motors();
@@ -192,6 +199,7 @@ pub fn build(runner: &PolicyRunner, source: &str, motor_targets: bool) -> Result
     }
     let layout: Vec<serde_json::Value> = observation_layout(layout)
         .iter()
+        .filter(|(_, o, _)| *o < obs_dim)
         .map(|(n, o, s)| serde_json::json!({"name": n, "offset": o, "size": s}))
         .collect();
     let meta = [
@@ -231,14 +239,39 @@ pub fn build(runner: &PolicyRunner, source: &str, motor_targets: bool) -> Result
     })
 }
 
+/// The nodes of an MLP (`net`: "actor", "estimator") from `input` to `output`: Gemm and ELU, the last layer linear.
+fn mlp_nodes(
+    net: &str,
+    layers: &[trainer::nn::Linear],
+    input: &str,
+    output: &str,
+    nodes: &mut Vec<pb::NodeProto>,
+    inits: &mut Vec<pb::TensorProto>,
+) -> Result<()> {
+    let mut x = input.to_string();
+    for (i, l) in layers.iter().enumerate() {
+        let (w, b) = (format!("{net}.{i}.weight"), format!("{net}.{i}.bias"));
+        inits.push(tensor(&w, &[l.out_dim(), l.in_dim()], l.weight.as_tensor().flatten_all()?.to_vec1()?));
+        inits.push(tensor(&b, &[l.out_dim()], l.bias.as_tensor().to_vec1()?));
+        let last = i + 1 == layers.len();
+        let z = if last { output.to_string() } else { format!("{net}.{i}.linear") };
+        nodes.push(node("Gemm", &[&x, &w, &b], &z, vec![int_attr("transB", 1)]));
+        if !last {
+            let y = format!("{net}.{i}.elu");
+            nodes.push(node("Elu", &[&z], &y, vec![float_attr("alpha", 1.0)]));
+            x = y;
+        }
+    }
+    Ok(())
+}
+
 /// Writes the ONNX model of the policy at `policy_path` to `out` (atomically); returns the robot's observation
 /// and motor counts, the graph's input and output widths.
 pub fn export(policy_path: &Path, out: &Path, motor_targets: bool) -> Result<(usize, usize)> {
     let runner = PolicyRunner::load(policy_path, "export")?;
     let model = build(&runner, &policy_path.display().to_string(), motor_targets)?;
     trainer::tensorfile::write_atomic(out, &model.encode_to_vec())?;
-    let layout = runner.layout();
-    Ok((layout.dim(), layout.n_motors))
+    Ok((runner.policy.view().inputs, runner.layout().n_motors))
 }
 
 /// Reads an ONNX file written by `export`, refusing anything else with one clear error.

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::Result;
+use topa_env::observation::ObsLayout;
 use topa_env::TaskKind;
 use trainer::checkpoint;
 use trainer::policy_file::{self, PolicyMeta, Provenance};
@@ -15,6 +16,21 @@ use crate::config::{env_config, with_env};
 fn policy_meta(obs_dim: usize, action_dim: usize, provenance: Provenance) -> Result<PolicyMeta> {
     let env = env_config(&provenance.config)?;
     let cfg = with_env(&provenance.config, &env);
+    // The view of a robot's row: its layout has one motor per action.
+    let view = (env.task == TaskKind::Robot)
+        .then(|| {
+            let layout = env.observation.layout(ObsLayout::new(action_dim).with_scan(env.height_scan.grid()));
+            env.observation.actor_view(&layout)
+        })
+        .filter(|v| !v.is_whole());
+    if let Some(v) = view.as_ref().filter(|v| v.obs_dim != obs_dim) {
+        return Err(trainer::Error::Invalid(format!(
+            "the observation has {obs_dim} values and its config describes {}",
+            v.obs_dim
+        ))
+        .into());
+    }
+    let estimator_hidden = view.as_ref().filter(|v| v.estimate.is_some()).map(|_| cfg.network.estimator_hidden.clone());
     Ok(PolicyMeta {
         format: policy_file::FORMAT.into(),
         version: policy_file::VERSION,
@@ -26,6 +42,8 @@ fn policy_meta(obs_dim: usize, action_dim: usize, provenance: Provenance) -> Res
         action_scale: env.action_scale,
         action_clip: env.action_clip,
         policy_dt: env.policy_dt(),
+        actor_view: view,
+        estimator_hidden,
         weights: String::new(),
         weights_crc32: 0,
         provenance: Provenance { config: cfg, ..provenance },
@@ -49,7 +67,8 @@ pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> 
             segments: t.segments.clone(),
         },
     )?;
-    Ok(policy_file::save(&out.join("policy"), &t.policy.ac.actor, &t.policy.normalizer, meta)?)
+    let ac = &t.policy.ac;
+    Ok(policy_file::save(&out.join("policy"), &ac.actor, ac.estimator.as_ref(), &t.policy.normalizer, meta)?)
 }
 
 /// Exports the policy of a kept checkpoint (its sidecar) as `<stem>.{safetensors,json}`, e.g. to evaluate a run

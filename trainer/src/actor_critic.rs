@@ -5,6 +5,7 @@ use candle_core::{Device, Result, Tensor, Var};
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 
+use crate::actor_view::ActorView;
 use crate::nn::{Mlp, MlpScratch};
 
 pub struct ActorCritic {
@@ -12,26 +13,45 @@ pub struct ActorCritic {
     pub critic: Mlp,
     /// log σ per action dimension.
     pub log_std: Var,
+    /// Values in the observation row (the critic's input).
     pub obs_dim: usize,
     pub act_dim: usize,
+    /// What the actor reads of the row (all of it unless the task says otherwise).
+    pub view: ActorView,
+    /// The concurrent estimator of the view's estimated columns, from the actor's inputs (Ji et al., 2022).
+    pub estimator: Option<Mlp>,
 }
 
 impl ActorCritic {
+    /// The networks for `view` (its `obs_dim` is the critic's input, its `dim()` the actor's); an estimator with
+    /// `estimator_hidden` layers when the view has estimated columns. The draws are those of the paper's networks
+    /// (actor, critic, then the estimator's), so a whole view builds the same weights as before views existed.
     pub fn new(
-        obs_dim: usize,
+        view: ActorView,
         act_dim: usize,
         actor_hidden: &[usize],
         critic_hidden: &[usize],
+        estimator_hidden: &[usize],
         init_std: f64,
         rng: &mut ChaCha8Rng,
     ) -> Result<Self> {
-        let dims = |hidden: &[usize], out: usize| -> Vec<usize> {
-            std::iter::once(obs_dim).chain(hidden.iter().copied()).chain(std::iter::once(out)).collect()
+        let dims = |input: usize, hidden: &[usize], out: usize| -> Vec<usize> {
+            std::iter::once(input).chain(hidden.iter().copied()).chain(std::iter::once(out)).collect()
         };
-        let actor = Mlp::new(&dims(actor_hidden, act_dim), rng)?;
-        let critic = Mlp::new(&dims(critic_hidden, 1), rng)?;
+        let obs_dim = view.obs_dim;
+        let actor = Mlp::new(&dims(view.dim(), actor_hidden, act_dim), rng)?;
+        let critic = Mlp::new(&dims(obs_dim, critic_hidden, 1), rng)?;
         let log_std = Var::from_vec(vec![init_std.ln() as f32; act_dim], act_dim, &Device::Cpu)?;
-        Ok(ActorCritic { actor, critic, log_std, obs_dim, act_dim })
+        let estimator = match view.estimate_dim() {
+            0 => None,
+            e => Some(Mlp::new(&dims(view.inputs, estimator_hidden, e), rng)?),
+        };
+        Ok(ActorCritic { actor, critic, log_std, obs_dim, act_dim, view, estimator })
+    }
+
+    /// The estimator's variables with their names in checkpoints and policy files (none without one).
+    pub fn named_estimator_vars(&self) -> Vec<(String, Var)> {
+        self.estimator.as_ref().map_or(Vec::new(), |e| named_mlp("estimator", e))
     }
 
     /// Every trainable variable with a stable name (the names used in checkpoints and policy files).
@@ -66,6 +86,11 @@ pub fn named_mlp(prefix: &str, mlp: &Mlp) -> Vec<(String, Var)> {
 pub struct InferenceBuffers {
     pub actor: MlpScratch,
     pub critic: MlpScratch,
+    pub estimator: MlpScratch,
+    /// The actor's rows when its view is not the whole observation, and the estimator's inputs and outputs.
+    pub actor_in: Vec<f32>,
+    pub estimator_in: Vec<f32>,
+    pub estimate: Vec<f32>,
     pub mean: Vec<f32>,
     pub value: Vec<f32>,
 }

@@ -24,6 +24,9 @@ pub struct AgentMeta {
     pub learning_rate: f64,
     pub adam_step: u64,
     pub normalizer_count: f64,
+    /// The concurrent estimator's Adam step count (none without an estimator).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub estimator_adam_step: Option<u64>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -78,10 +81,44 @@ fn save_agent(b: &mut Bundle, prefix: &str, a: &Agent) -> Result<AgentMeta> {
         b.add_f32(&format!("{prefix}.adam_m.{name}"), &dims, &a.opt.state.m[i]);
         b.add_f32(&format!("{prefix}.adam_v.{name}"), &dims, &a.opt.state.v[i]);
     }
+    if let Some(learner) = &a.estimator {
+        for (i, (name, var)) in a.ac.named_estimator_vars().iter().enumerate() {
+            let dims = var.dims().to_vec();
+            b.add_f32(&format!("{prefix}.{name}"), &dims, &var.as_tensor().flatten_all()?.to_vec1::<f32>()?);
+            b.add_f32(&format!("{prefix}.adam_m.{name}"), &dims, &learner.opt.state.m[i]);
+            b.add_f32(&format!("{prefix}.adam_v.{name}"), &dims, &learner.opt.state.v[i]);
+        }
+    }
     let d = a.normalizer.dim();
     b.add_f64(&format!("{prefix}.normalizer.mean"), &[d], &a.normalizer.mean);
     b.add_f64(&format!("{prefix}.normalizer.m2"), &[d], &a.normalizer.m2);
-    Ok(AgentMeta { learning_rate: a.lr, adam_step: a.opt.state.step, normalizer_count: a.normalizer.count })
+    Ok(AgentMeta {
+        learning_rate: a.lr,
+        adam_step: a.opt.state.step,
+        normalizer_count: a.normalizer.count,
+        estimator_adam_step: a.estimator.as_ref().map(|e| e.opt.state.step),
+    })
+}
+
+/// The estimator's weights and Adam state, when the agent has one (a checkpoint of a run without one has none:
+/// one clear error).
+fn load_estimator(l: &Loaded, prefix: &str, a: &mut Agent, meta: &AgentMeta) -> Result<()> {
+    let Some(learner) = &mut a.estimator else { return Ok(()) };
+    let Some(step) = meta.estimator_adam_step else {
+        bad_file!(
+            "this run's observation has an estimated value and the checkpoint has no estimator: it was written with \
+             another `[env.observation]`"
+        );
+    };
+    let (mut m, mut v) = (Vec::new(), Vec::new());
+    for (name, var) in a.ac.named_estimator_vars() {
+        let dims = var.dims().to_vec();
+        let read = |what: &str| l.f32(&format!("{prefix}.{what}{name}"), &dims);
+        var.set(&Tensor::from_vec(read("")?, dims.as_slice(), &Device::Cpu)?)?;
+        m.push(read("adam_m.")?);
+        v.push(read("adam_v.")?);
+    }
+    learner.opt.set_state(AdamState { step, m, v })
 }
 
 fn load_agent(l: &Loaded, prefix: &str, a: &mut Agent, meta: &AgentMeta) -> Result<()> {
@@ -102,6 +139,10 @@ fn load_agent_widened(
     extra: usize,
     first_obs: &[f32],
 ) -> Result<()> {
+    if extra > 0 && !a.ac.view.is_whole() {
+        invalid!("inputs can be added to a policy whose actor reads the whole observation only");
+    }
+    load_estimator(l, prefix, a, meta)?;
     let named = a.ac.named_vars();
     let (mut m, mut v) = (Vec::new(), Vec::new());
     for (name, var) in &named {
@@ -351,11 +392,7 @@ pub fn init_policy_from(t: &mut Trainer, side: &Sidecar, l: &Loaded, extra_input
 /// described by `meta` (the caller knows the task: robot, sizes, control settings). For studying a run's progress
 /// from its kept checkpoints.
 pub fn save_policy(side: &Sidecar, l: &Loaded, stem: &Path, meta: crate::policy_file::PolicyMeta) -> Result<PathBuf> {
-    let dims: Vec<usize> = std::iter::once(side.obs_dim)
-        .chain(side.config.network.actor_hidden.iter().copied())
-        .chain(std::iter::once(side.action_dim))
-        .collect();
-    let actor = crate::policy_file::read_actor(l, "policy.", &dims)?;
+    let (_, actor, estimator) = crate::policy_file::read_networks(l, "policy.", &meta)?;
     let mut normalizer = crate::normalizer::Normalizer::new(side.obs_dim, None);
     let d = side.obs_dim;
     normalizer.set_stats(
@@ -363,5 +400,5 @@ pub fn save_policy(side: &Sidecar, l: &Loaded, stem: &Path, meta: crate::policy_
         l.f64("policy.normalizer.m2", &[d])?,
         side.policy.normalizer_count,
     )?;
-    crate::policy_file::save(stem, &actor, &normalizer, meta)
+    crate::policy_file::save(stem, &actor, estimator.as_ref(), &normalizer, meta)
 }

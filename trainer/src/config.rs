@@ -147,6 +147,11 @@ pub struct NetworkConfig {
     pub activation: HiddenActivation,
     /// Initial standard deviation of the Gaussian policy (rsl_rl: 1.0).
     pub init_noise_std: f64,
+    /// Widths of the concurrent estimator's hidden layers (used when the task's observation has estimated values,
+    /// e.g. `[env.observation] base_velocity = "estimated"`; Ji et al. 2022: [256, 128]).
+    pub estimator_hidden: Vec<usize>,
+    /// The estimator's Adam learning rate (fixed: the policy's adaptive rate follows the policy's KL).
+    pub estimator_learning_rate: f64,
 }
 
 impl Default for NetworkConfig {
@@ -156,6 +161,8 @@ impl Default for NetworkConfig {
             critic_hidden: vec![512, 256, 128],
             activation: HiddenActivation::Elu,
             init_noise_std: 1.0,
+            estimator_hidden: vec![256, 128],
+            estimator_learning_rate: 1e-3,
         }
     }
 }
@@ -325,6 +332,7 @@ impl TrainConfig {
             ("ppo.max_grad_norm", p.max_grad_norm),
             ("ppo.desired_kl", p.desired_kl),
             ("network.init_noise_std", self.network.init_noise_std),
+            ("network.estimator_learning_rate", self.network.estimator_learning_rate),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(ConfigError::Setting(format!("{k} must be positive, got {v}")));

@@ -19,11 +19,14 @@
 //! ```
 
 pub mod actor_critic;
+pub mod actor_view;
 pub mod adversary;
+pub mod batch;
 pub mod checkpoint;
 pub mod comm;
 pub mod config;
 pub mod error;
+pub mod estimator;
 pub mod metrics;
 pub mod nn;
 pub mod normalizer;

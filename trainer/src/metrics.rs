@@ -26,6 +26,8 @@ fn update_columns(prefix: &str) -> Vec<String> {
         "entropy",
         "symmetry_loss",
         "decay_loss",
+        "estimator_loss",
+        "estimator_rmse",
         "kl",
         "lr",
         "clip_fraction",
@@ -45,13 +47,15 @@ fn update_values(u: &Option<UpdateStats>) -> Vec<f64> {
             u.entropy,
             u.symmetry_loss,
             u.decay_loss,
+            u.estimator_loss,
+            u.estimator_rmse,
             u.kl,
             u.learning_rate,
             u.clip_fraction,
             u.grad_norm,
             u.skipped as f64,
         ],
-        None => vec![f64::NAN; 10],
+        None => vec![f64::NAN; 12],
     }
 }
 

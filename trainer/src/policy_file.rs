@@ -9,6 +9,7 @@ use candle_core::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 
 use crate::actor_critic::named_mlp;
+use crate::actor_view::ActorView;
 use crate::nn::{Activation, Linear, Mlp, MlpScratch};
 use crate::normalizer::{Normalizer, STD_EPS};
 use crate::tensorfile::{checksum, read_sidecar, write_atomic, Bundle, Loaded, SidecarKind};
@@ -51,36 +52,64 @@ pub struct PolicyMeta {
     pub action_clip: f64,
     /// Control period the policy was trained at, s.
     pub policy_dt: f64,
+    /// What the actor reads of the observation row (none: all of it, as the paper's policies).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub actor_view: Option<ActorView>,
+    /// The concurrent estimator's hidden layers (with an actor view that estimates values).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub estimator_hidden: Option<Vec<usize>>,
     pub weights: String,
     pub weights_crc32: u32,
     pub provenance: Provenance,
 }
 
+/// Buffers of the forward pass (reused every call).
+#[derive(Default)]
+struct InferenceBuffers {
+    norm: Vec<f32>,
+    actor: MlpScratch,
+    estimator: MlpScratch,
+    estimator_in: Vec<f32>,
+    estimate: Vec<f32>,
+    actor_in: Vec<f32>,
+}
+
 /// A loaded policy: deterministic actions (the Gaussian's mean) from raw observations.
 pub struct Policy {
     pub meta: PolicyMeta,
+    view: ActorView,
     actor: Mlp,
+    estimator: Option<Mlp>,
     normalizer: Normalizer,
-    scratch: MlpScratch,
-    norm_buf: Vec<f32>,
+    buffers: InferenceBuffers,
 }
 
 impl Clone for Policy {
     fn clone(&self) -> Self {
         Policy {
             meta: self.meta.clone(),
+            view: self.view.clone(),
             actor: self.actor.clone(),
+            estimator: self.estimator.clone(),
             normalizer: self.normalizer.clone(),
-            scratch: MlpScratch::default(),
-            norm_buf: Vec::new(),
+            buffers: InferenceBuffers::default(),
         }
     }
 }
 
-/// Writes `<stem>.safetensors` and `<stem>.json` (e.g. `assets/policies/C.safetensors`).
-pub fn save(stem: &Path, actor: &Mlp, normalizer: &Normalizer, meta_in: PolicyMeta) -> Result<PathBuf> {
+/// Writes `<stem>.safetensors` and `<stem>.json` (e.g. `assets/policies/C.safetensors`); the estimator with a
+/// view that estimates values.
+pub fn save(
+    stem: &Path,
+    actor: &Mlp,
+    estimator: Option<&Mlp>,
+    normalizer: &Normalizer,
+    meta_in: PolicyMeta,
+) -> Result<PathBuf> {
     let mut b = Bundle::default();
-    for (name, var) in named_mlp("actor", actor) {
+    let named =
+        named_mlp("actor", actor).into_iter().chain(estimator.map_or(Vec::new(), |e| named_mlp("estimator", e)));
+    for (name, var) in named {
         b.add_f32(&name, var.dims(), &var.as_tensor().flatten_all()?.to_vec1::<f32>()?);
     }
     let d = normalizer.dim();
@@ -98,23 +127,48 @@ pub fn save(stem: &Path, actor: &Mlp, normalizer: &Normalizer, meta_in: PolicyMe
     Ok(json)
 }
 
-/// The actor stored under `prefix` (`{prefix}actor.{i}.weight` / `.bias`) with layer sizes `dims` (inputs,
-/// hidden…, outputs); a layer beyond them is an error.
-pub(crate) fn read_actor(l: &Loaded, prefix: &str, dims: &[usize]) -> Result<Mlp> {
+/// The network `net` ("actor", "estimator") stored under `prefix` (`{prefix}{net}.{i}.weight` / `.bias`) with
+/// layer sizes `dims` (inputs, hidden…, outputs); a layer beyond them is an error.
+pub(crate) fn read_mlp(l: &Loaded, prefix: &str, net: &str, dims: &[usize]) -> Result<Mlp> {
     let layers = (0..dims.len() - 1)
         .map(|i| -> Result<Linear> {
-            let w = l.f32(&format!("{prefix}actor.{i}.weight"), &[dims[i + 1], dims[i]])?;
-            let b = l.f32(&format!("{prefix}actor.{i}.bias"), &[dims[i + 1]])?;
+            let w = l.f32(&format!("{prefix}{net}.{i}.weight"), &[dims[i + 1], dims[i]])?;
+            let b = l.f32(&format!("{prefix}{net}.{i}.bias"), &[dims[i + 1]])?;
             Ok(Linear {
                 weight: candle_core::Var::from_tensor(&Tensor::from_vec(w, (dims[i + 1], dims[i]), &Device::Cpu)?)?,
                 bias: candle_core::Var::from_tensor(&Tensor::from_vec(b, dims[i + 1], &Device::Cpu)?)?,
             })
         })
         .collect::<Result<Vec<_>>>()?;
-    if l.shape(&format!("{prefix}actor.{}.weight", dims.len() - 1)).is_some() {
-        bad_file!("more actor layers than the sidecar says");
+    if l.shape(&format!("{prefix}{net}.{}.weight", dims.len() - 1)).is_some() {
+        bad_file!("more {net} layers than the sidecar says");
     }
     Ok(Mlp { layers, hidden_activation: Activation::Elu })
+}
+
+/// `[input, hidden…, output]`.
+fn layer_dims(input: usize, hidden: &[usize], output: usize) -> Vec<usize> {
+    std::iter::once(input).chain(hidden.iter().copied()).chain(std::iter::once(output)).collect()
+}
+
+/// The actor and (with an estimating view) the estimator of a policy described by `meta`, stored under `prefix`.
+pub(crate) fn read_networks(l: &Loaded, prefix: &str, meta: &PolicyMeta) -> Result<(ActorView, Mlp, Option<Mlp>)> {
+    let view = meta.actor_view.clone().unwrap_or_else(|| ActorView::whole(meta.obs_dim));
+    if view.obs_dim != meta.obs_dim {
+        bad_file!(
+            "the actor view is of {} observation values, the policy's observation has {}",
+            view.obs_dim,
+            meta.obs_dim
+        );
+    }
+    view.validate().map_err(|e| Error::bad_file(format!("actor_view: {e}")))?;
+    let actor = read_mlp(l, prefix, "actor", &layer_dims(view.dim(), &meta.hidden, meta.action_dim))?;
+    let estimator = match (view.estimate_dim(), &meta.estimator_hidden) {
+        (0, _) => None,
+        (e, Some(hidden)) => Some(read_mlp(l, prefix, "estimator", &layer_dims(view.inputs, hidden, e))?),
+        (_, None) => bad_file!("the actor view estimates values and the sidecar gives no estimator_hidden"),
+    };
+    Ok((view, actor, estimator))
 }
 
 impl Policy {
@@ -134,18 +188,15 @@ impl Policy {
         };
         let (meta, l): (PolicyMeta, Loaded) = read_sidecar(&json, &kind)?;
         let weights = json.parent().unwrap_or(Path::new(".")).join(&meta.weights);
-        let dims: Vec<usize> = std::iter::once(meta.obs_dim)
-            .chain(meta.hidden.iter().copied())
-            .chain(std::iter::once(meta.action_dim))
-            .collect();
-        let actor = read_actor(&l, "", &dims).map_err(|e| Error::file(weights.display().to_string(), e))?;
+        let (view, actor, estimator) =
+            read_networks(&l, "", &meta).map_err(|e| Error::file(weights.display().to_string(), e))?;
         let mut normalizer = Normalizer::new(meta.obs_dim, None);
         let count = l.f64("normalizer.count", &[1])?[0];
         normalizer
             .set_stats(l.f64("normalizer.mean", &[meta.obs_dim])?, l.f64("normalizer.m2", &[meta.obs_dim])?, count)
             .map_err(|e| Error::file(weights.display().to_string(), e))?;
         normalizer.frozen = true;
-        Ok(Policy { meta, actor, normalizer, scratch: MlpScratch::default(), norm_buf: Vec::new() })
+        Ok(Policy { meta, view, actor, estimator, normalizer, buffers: InferenceBuffers::default() })
     }
 
     pub fn obs_dim(&self) -> usize {
@@ -157,11 +208,49 @@ impl Policy {
     }
 
     /// Mean actions for `obs` (rows × obs_dim) into `actions` (rows × action_dim).
+    /// With an actor view, the values after the actor's inputs (privileged, e.g. the true base velocity) are not
+    /// read: any value there gives the same actions.
     pub fn act(&mut self, obs: &[f32], actions: &mut Vec<f32>) {
         let rows = obs.len() / self.meta.obs_dim;
-        self.norm_buf.resize(obs.len(), 0.0);
-        self.normalizer.normalize(obs, &mut self.norm_buf);
-        self.actor.forward_inference(&self.norm_buf, rows, actions, &mut self.scratch);
+        let b = &mut self.buffers;
+        b.norm.resize(obs.len(), 0.0);
+        self.normalizer.normalize(obs, &mut b.norm);
+        if self.view.is_whole() {
+            self.actor.forward_inference(&b.norm, rows, actions, &mut b.actor);
+            return;
+        }
+        b.estimate.clear();
+        if let Some(e) = &self.estimator {
+            self.view.inputs_of(&b.norm, &mut b.estimator_in);
+            e.forward_inference(&b.estimator_in, rows, &mut b.estimate, &mut b.estimator);
+        }
+        self.view.assemble(&b.norm, &b.estimate, &mut b.actor_in);
+        self.actor.forward_inference(&b.actor_in, rows, actions, &mut b.actor);
+    }
+
+    /// The estimator's output for the last `act` (rows × its size, in the estimated values' units), if any.
+    pub fn estimate(&self) -> Option<Vec<f64>> {
+        let c = self.view.estimate.clone()?;
+        let (mean, std) = (&self.normalizer.mean, self.normalizer_std());
+        let e = c.len();
+        Some(
+            self.buffers
+                .estimate
+                .iter()
+                .enumerate()
+                .map(|(i, x)| *x as f64 * std[c.start + i % e] + mean[c.start + i % e])
+                .collect(),
+        )
+    }
+
+    /// What the actor reads of the observation row.
+    pub fn view(&self) -> &ActorView {
+        &self.view
+    }
+
+    /// The concurrent estimator, if the policy has one.
+    pub fn estimator(&self) -> Option<&Mlp> {
+        self.estimator.as_ref()
     }
 
     /// The actor network.

@@ -10,8 +10,10 @@ use rand_chacha::ChaCha8Rng;
 use std::rc::Rc;
 
 use crate::actor_critic::{self, ActorCritic, InferenceBuffers};
+pub use crate::batch::Batch;
 use crate::comm::{Comm, Single};
 use crate::config::{LossConfig, PpoConfig};
+use crate::estimator::EstimatorLearner;
 use crate::normalizer::{Moments, Normalizer};
 use crate::optim::{AdamParams, AdamW};
 pub use crate::storage::ActOutput;
@@ -25,6 +27,10 @@ pub struct UpdateStats {
     pub entropy: f64,
     pub symmetry_loss: f64,
     pub decay_loss: f64,
+    /// The concurrent estimator's regression (0 without one): MSE in normalised units, RMSE in the estimated
+    /// values' units (m/s for the base velocity), on the minibatches before each step.
+    pub estimator_loss: f64,
+    pub estimator_rmse: f64,
     pub kl: f64,
     pub clip_fraction: f64,
     pub grad_norm: f64,
@@ -45,16 +51,36 @@ pub struct Agent {
     pub losses: LossConfig,
     /// Mirror maps for the symmetry loss (None: no symmetry term).
     pub symmetry: Option<Symmetry>,
+    /// The same maps as the actor sees them (its view of the observation; equal to `symmetry` for a whole view).
+    pub actor_symmetry: Option<Symmetry>,
+    /// The concurrent estimator's optimiser (when the actor–critic has an estimator).
+    pub estimator: Option<EstimatorLearner>,
     /// The ranks of a multi-process run: gradients, KL and normaliser statistics are combined over them.
     pub comm: Rc<dyn Comm>,
     buffers: InferenceBuffers,
 }
 
 impl Agent {
-    pub fn new(ac: ActorCritic, ppo: PpoConfig, losses: LossConfig, symmetry: Option<Symmetry>) -> Self {
+    /// The agent for `ac`; its estimator (if any) learns at `estimator_lr`. Fails when the mirror maps cannot be
+    /// restricted to the actor's view of the observation.
+    pub fn new(
+        ac: ActorCritic,
+        ppo: PpoConfig,
+        losses: LossConfig,
+        symmetry: Option<Symmetry>,
+        estimator_lr: f64,
+    ) -> crate::error::Result<Self> {
         let normalizer = Normalizer::new(ac.obs_dim, symmetry.as_ref().map(|s| s.obs.clone()));
         let opt = AdamW::new(ac.vars(), AdamParams::default());
-        Agent {
+        let actor_symmetry = match &symmetry {
+            Some(s) if !ac.view.is_whole() => {
+                let obs = ac.view.mirror(&s.obs)?;
+                Some(Symmetry { obs, act: s.act.clone() })
+            }
+            s => s.clone(),
+        };
+        let estimator = ac.estimator.as_ref().map(|e| EstimatorLearner::new(e, estimator_lr, ppo.max_grad_norm));
+        Ok(Agent {
             lr: ppo.learning_rate,
             ac,
             normalizer,
@@ -62,9 +88,11 @@ impl Agent {
             ppo,
             losses,
             symmetry,
+            actor_symmetry,
+            estimator,
             comm: Rc::new(Single),
             buffers: InferenceBuffers::default(),
-        }
+        })
     }
 
     /// Normalises `raw_obs` (updating the statistics first unless frozen), then samples actions (or takes the
@@ -73,9 +101,19 @@ impl Agent {
         let rows = raw_obs.len() / self.ac.obs_dim;
         self.update_normalizer(raw_obs);
         self.normalizer.normalize(raw_obs, out.obs_norm);
-        let b = &mut self.buffers;
-        self.ac.actor.forward_inference(out.obs_norm, rows, &mut b.mean, &mut b.actor);
-        self.ac.critic.forward_inference(out.obs_norm, rows, &mut b.value, &mut b.critic);
+        let (ac, b) = (&self.ac, &mut self.buffers);
+        if ac.view.is_whole() {
+            ac.actor.forward_inference(out.obs_norm, rows, &mut b.mean, &mut b.actor);
+        } else {
+            if let Some(e) = &ac.estimator {
+                ac.view.inputs_of(out.obs_norm, &mut b.estimator_in);
+                e.forward_inference(&b.estimator_in, rows, &mut b.estimate, &mut b.estimator);
+                out.estimates.copy_from_slice(&b.estimate);
+            }
+            ac.view.assemble(out.obs_norm, &b.estimate, &mut b.actor_in);
+            ac.actor.forward_inference(&b.actor_in, rows, &mut b.mean, &mut b.actor);
+        }
+        ac.critic.forward_inference(out.obs_norm, rows, &mut b.value, &mut b.critic);
         out.means.copy_from_slice(&b.mean);
         out.values.copy_from_slice(&b.value);
         let log_std = self.ac.log_std.as_tensor().to_vec1::<f32>()?;
@@ -124,9 +162,9 @@ impl Agent {
                 idx.swap(i, rng.random_range(0..=i));
             }
             for k in 0..self.ppo.minibatches {
-                buf.gather(r, &idx[k * mb..(k + 1) * mb]);
-                if let Some(sym) = &augment {
-                    buf.append_mirror(sym);
+                buf.gather(r, &idx[k * mb..(k + 1) * mb], &self.ac.view);
+                if let (Some(sym), Some(actor)) = (&augment, &self.actor_symmetry) {
+                    buf.append_mirror(sym, &actor.obs);
                 }
                 self.minibatch_step(&buf, &r.std, &mut stats)?;
             }
@@ -138,6 +176,8 @@ impl Agent {
             &mut stats.entropy,
             &mut stats.symmetry_loss,
             &mut stats.decay_loss,
+            &mut stats.estimator_loss,
+            &mut stats.estimator_rmse,
             &mut stats.kl,
             &mut stats.clip_fraction,
             &mut stats.grad_norm,
@@ -151,14 +191,19 @@ impl Agent {
     fn minibatch_step(&mut self, b: &Batch, old_std: &[f32], stats: &mut UpdateStats) -> Result<()> {
         let rows = b.rows;
         let obs = Tensor::from_slice(&b.obs, (rows, self.ac.obs_dim), &Device::Cpu)?;
+        let actor_obs = if self.ac.view.is_whole() {
+            obs.clone()
+        } else {
+            Tensor::from_slice(&b.actor_obs, (rows, self.ac.view.dim()), &Device::Cpu)?
+        };
         // The actor's loss and the critic's share no parameter, so their forward and backward passes run side by
         // side: with two threads each pass keeps a thread busy between the other's short parallel regions. Each
         // backward is the one the summed loss would give (same graph below each root), so the arithmetic does not
         // depend on the thread count.
-        let (ac, ppo, losses, sym) = (&self.ac, &self.ppo, &self.losses, self.symmetry.as_ref());
+        let (ac, ppo, losses, sym) = (&self.ac, &self.ppo, &self.losses, self.actor_symmetry.as_ref());
         let (actor, critic) = rayon::join(
             || -> Result<_> {
-                let mean = ac.actor.forward(&obs)?;
+                let mean = ac.actor.forward(&actor_obs)?;
                 let terms = actor_terms(ac, ppo, losses, sym, b, &mean)?;
                 let grads = backward_if_finite(&terms.total)?;
                 Ok((mean, terms, grads))
@@ -177,6 +222,12 @@ impl Agent {
         // On the rollout's own rows: their mirror images were never acted on.
         let kl = actor_critic::mean_kl(&b.means[..b.sampled_rows() * self.ac.act_dim], old_std, &new_mean, &new_std);
         stats.minibatches += 1;
+        if let (Some(learner), Some(net)) = (&mut self.estimator, &self.ac.estimator) {
+            let scale = estimate_scale(&self.normalizer, &self.ac.view);
+            let step = learner.step(net, &self.ac.view, &obs, &scale, self.comm.as_ref())?;
+            stats.estimator_loss += step.loss;
+            stats.estimator_rmse += step.rmse;
+        }
         let finite = actor_grads.is_some() && critic_grads.is_some();
         // All ranks take the same step: the mean gradient, the mean KL, and a skip if any rank's loss failed
         // (with one process the sums are the identity).
@@ -234,7 +285,7 @@ impl Agent {
     /// (`obs` and `mean` = π(obs) already computed). L_actor is the clipped surrogate minus the entropy bonus;
     /// symmetry and decay carry their coefficients. (The update takes the actor's and the critic's parts apart.)
     pub fn loss_terms(&self, b: &Batch, obs: &Tensor, mean: &Tensor) -> Result<LossTerms> {
-        let a = actor_terms(&self.ac, &self.ppo, &self.losses, self.symmetry.as_ref(), b, mean)?;
+        let a = actor_terms(&self.ac, &self.ppo, &self.losses, self.actor_symmetry.as_ref(), b, mean)?;
         let value = critic_loss(&self.ac, &self.ppo, b, obs)?;
         let total = (&a.total + (&value * self.ppo.value_loss_coef)?)?;
         Ok(LossTerms {
@@ -247,6 +298,12 @@ impl Agent {
             ratio: a.ratio,
         })
     }
+}
+
+/// What one normalised unit of each estimated column is in the column's own units (the normaliser's scale).
+fn estimate_scale(n: &Normalizer, view: &crate::actor_view::ActorView) -> Vec<f32> {
+    let std = n.std();
+    view.estimate.clone().map_or(Vec::new(), |c| c.map(|i| (std[i] + crate::normalizer::STD_EPS) as f32).collect())
 }
 
 /// The gradients of `loss`, or None when its value is not finite.
@@ -288,7 +345,7 @@ fn actor_terms(
                 let n = rows / 2;
                 mirror_mse(sym, &mean.narrow(0, 0, n)?, &mean.narrow(0, n, n)?)?
             } else {
-                symmetry_loss(ac, sym, &b.obs, mean, rows)?
+                symmetry_loss(ac, sym, b.actor_rows(), mean, rows)?
             };
             Some((l * losses.symmetry_coef)?)
         }
@@ -356,12 +413,12 @@ pub struct LossTerms {
     pub ratio: Tensor,
 }
 
-/// L_symmetry = MSE(S_a(π(o)), π(S_o(o))) on the action means (paper, eq. "symmetry"); `obs` are normalised
-/// observations, which the symmetric normaliser lets us mirror directly.
+/// L_symmetry = MSE(S_a(π(o)), π(S_o(o))) on the action means (paper, eq. "symmetry"); `obs` are the actor's
+/// normalised input rows, which the symmetric normaliser lets us mirror directly (`sym.obs` is the actor's map).
 pub fn symmetry_loss(ac: &ActorCritic, sym: &Symmetry, obs: &[f32], mean: &Tensor, rows: usize) -> Result<Tensor> {
     let mut mirrored = vec![0.0f32; obs.len()];
     sym.obs.apply_rows(obs, &mut mirrored);
-    let mean_of_mirror = ac.actor.forward(&Tensor::from_vec(mirrored, (rows, ac.obs_dim), &Device::Cpu)?)?;
+    let mean_of_mirror = ac.actor.forward(&Tensor::from_vec(mirrored, (rows, ac.view.dim()), &Device::Cpu)?)?;
     mirror_mse(sym, mean, &mean_of_mirror)
 }
 
@@ -384,95 +441,10 @@ pub fn decay_loss(ac: &ActorCritic) -> Result<Tensor> {
     last.weight.as_tensor().sqr()?.sum_all()? + last.bias.as_tensor().sqr()?.sum_all()?
 }
 
-/// One minibatch gathered into contiguous buffers (obs normalised).
-#[derive(Debug, Clone, Default)]
-pub struct Batch {
-    pub rows: usize,
-    /// The second half of the rows is the mirror image of the first (`losses.symmetry_augmentation`).
-    pub mirrored: bool,
-    pub obs: Vec<f32>,
-    pub actions: Vec<f32>,
-    pub means: Vec<f32>,
-    pub log_probs: Vec<f32>,
-    pub values: Vec<f32>,
-    pub returns: Vec<f32>,
-    pub advantages: Vec<f32>,
-}
-
-impl Batch {
-    pub fn with_capacity(rows: usize, od: usize, ad: usize) -> Self {
-        Batch {
-            rows,
-            mirrored: false,
-            obs: Vec::with_capacity(rows * od),
-            actions: Vec::with_capacity(rows * ad),
-            means: Vec::with_capacity(rows * ad),
-            log_probs: Vec::with_capacity(rows),
-            values: Vec::with_capacity(rows),
-            returns: Vec::with_capacity(rows),
-            advantages: Vec::with_capacity(rows),
-        }
-    }
-
-    /// Copies rollout rows `idx` in.
-    pub fn gather(&mut self, r: &Rollout, idx: &[usize]) {
-        let (od, ad) = (r.obs_dim, r.act_dim);
-        self.rows = idx.len();
-        self.mirrored = false;
-        for v in [
-            &mut self.obs,
-            &mut self.actions,
-            &mut self.means,
-            &mut self.log_probs,
-            &mut self.values,
-            &mut self.returns,
-            &mut self.advantages,
-        ] {
-            v.clear();
-        }
-        for &i in idx {
-            self.obs.extend_from_slice(&r.obs[i * od..(i + 1) * od]);
-            self.actions.extend_from_slice(&r.actions[i * ad..(i + 1) * ad]);
-            self.means.extend_from_slice(&r.means[i * ad..(i + 1) * ad]);
-            self.log_probs.push(r.log_probs[i]);
-            self.values.push(r.values[i]);
-            self.returns.push(r.returns[i]);
-            self.advantages.push(r.advantages[i]);
-        }
-    }
-
-    /// Appends the mirror image of every row: S_o(o) (the normaliser is symmetric, so normalised observations
-    /// mirror directly), S_a(a) and S_a(μ_old), the same old log-probability, value, return and advantage — what the
-    /// mirrored robot would have seen, done and earned, valid as far as the rollout policy was symmetric.
-    pub fn append_mirror(&mut self, sym: &Symmetry) {
-        assert!(!self.mirrored, "a batch is mirrored once");
-        let n = self.rows;
-        for (v, map) in [(&mut self.obs, &sym.obs), (&mut self.actions, &sym.act), (&mut self.means, &sym.act)] {
-            let len = v.len();
-            v.resize(2 * len, 0.0);
-            let (orig, mirror) = v.split_at_mut(len);
-            map.apply_rows(orig, mirror);
-        }
-        for v in [&mut self.log_probs, &mut self.values, &mut self.returns, &mut self.advantages] {
-            v.extend_from_within(..n);
-        }
-        self.rows = 2 * n;
-        self.mirrored = true;
-    }
-
-    /// The rows that came from the rollout (the first half of a mirrored batch).
-    pub fn sampled_rows(&self) -> usize {
-        if self.mirrored {
-            self.rows / 2
-        } else {
-            self.rows
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::actor_view::ActorView;
     use crate::symmetry::SignedPermutation;
     use rand::SeedableRng;
 
@@ -482,7 +454,7 @@ mod tests {
     fn the_split_losses_have_the_summed_losses_gradient_exactly() {
         let (od, ad, rows) = (6, 4, 96);
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let ac = ActorCritic::new(od, ad, &[32, 16], &[32, 16], 0.7, &mut rng).unwrap();
+        let ac = ActorCritic::new(ActorView::whole(od), ad, &[32, 16], &[32, 16], &[], 0.7, &mut rng).unwrap();
         let mut obs_map = SignedPermutation::identity(od);
         obs_map.set_block(0, &[1, 0], &[1.0, -1.0]);
         let mut act_map = SignedPermutation::identity(ad);
@@ -490,12 +462,13 @@ mod tests {
         let sym = Symmetry { obs: obs_map, act: act_map };
         let losses = LossConfig { symmetry_coef: 0.7, decay_coef: 0.05, symmetry_augmentation: false };
         let ppo = PpoConfig { value_loss_coef: 0.8, entropy_coef: 0.01, ..PpoConfig::default() };
-        let agent = Agent::new(ac, ppo, losses, Some(sym));
+        let agent = Agent::new(ac, ppo, losses, Some(sym), 0.0).unwrap();
         let mut v = |n: usize, s: f32| -> Vec<f32> { (0..n).map(|_| rng.random_range(-s..s)).collect() };
         let b = Batch {
             rows,
             mirrored: false,
             obs: v(rows * od, 1.0),
+            actor_obs: Vec::new(),
             actions: v(rows * ad, 1.0),
             means: v(rows * ad, 0.5),
             log_probs: v(rows, 1.0).iter().map(|x| x - 5.0).collect(),

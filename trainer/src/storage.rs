@@ -7,6 +7,8 @@ pub struct ActOutput<'a> {
     pub means: &'a mut [f32],
     pub log_probs: &'a mut [f32],
     pub values: &'a mut [f32],
+    /// The concurrent estimator's outputs the actor read (rows × its size; empty without an estimator).
+    pub estimates: &'a mut [f32],
 }
 
 #[derive(Debug, Clone, Default)]
@@ -25,6 +27,9 @@ pub struct Rollout {
     pub dones: Vec<f32>,
     /// Action means at rollout time (for the KL of the adaptive learning rate).
     pub means: Vec<f32>,
+    /// Values the concurrent estimator gave the actor, per transition (`est_dim` each; none without one).
+    pub est_dim: usize,
+    pub estimates: Vec<f32>,
     /// The policy's σ during the rollout (state-independent).
     pub std: Vec<f32>,
     pub returns: Vec<f32>,
@@ -47,11 +52,20 @@ impl Rollout {
             rewards: vec![0.0; n],
             dones: vec![0.0; n],
             means: vec![0.0; n * act_dim],
+            est_dim: 0,
+            estimates: Vec::new(),
             std: vec![0.0; act_dim],
             returns: vec![0.0; n],
             advantages: vec![0.0; n],
             filled: 0,
         }
+    }
+
+    /// The same, storing `est_dim` estimator outputs per transition.
+    pub fn with_estimates(mut self, est_dim: usize) -> Self {
+        self.est_dim = est_dim;
+        self.estimates = vec![0.0; self.len() * est_dim];
+        self
     }
 
     pub fn len(&self) -> usize {
@@ -69,7 +83,7 @@ impl Rollout {
     /// The next step's rows of every buffer (all envs), for the acting agent to fill.
     pub fn next_step(&mut self) -> ActOutput<'_> {
         assert!(self.filled < self.steps, "rollout is full");
-        let (k, n, od, ad) = (self.filled, self.envs, self.obs_dim, self.act_dim);
+        let (k, n, od, ad, ed) = (self.filled, self.envs, self.obs_dim, self.act_dim, self.est_dim);
         self.filled += 1;
         ActOutput {
             obs_norm: &mut self.obs[k * n * od..(k + 1) * n * od],
@@ -77,6 +91,7 @@ impl Rollout {
             means: &mut self.means[k * n * ad..(k + 1) * n * ad],
             log_probs: &mut self.log_probs[k * n..(k + 1) * n],
             values: &mut self.values[k * n..(k + 1) * n],
+            estimates: &mut self.estimates[k * n * ed..(k + 1) * n * ed],
         }
     }
 

@@ -10,6 +10,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::actor_critic::ActorCritic;
+use crate::actor_view::ActorView;
 use crate::adversary;
 use crate::comm::{Comm, CommStats, Single};
 use crate::config::{LossConfig, TrainConfig};
@@ -108,6 +109,7 @@ struct Scratch {
     means: Vec<f32>,
     log_probs: Vec<f32>,
     values: Vec<f32>,
+    estimates: Vec<f32>,
     adv_obs_norm: Vec<f32>,
     /// The adversary's view of `raw_obs` when it attacks through the mirror.
     adv_raw_obs: Vec<f32>,
@@ -126,7 +128,21 @@ impl Trainer {
         let mut rng = ChaCha8Rng::seed_from_u64(cfg.run.seed);
         let (n, od, ad) = (env.num_envs(), env.obs_dim(), env.action_dim());
         let net = &cfg.network;
-        let ac = ActorCritic::new(od, ad, &net.actor_hidden, &net.critic_hidden, net.init_noise_std, &mut rng)?;
+        let view = env.actor_view();
+        if view.obs_dim != od {
+            invalid!("the task's actor view is of {} observation values, its observation has {od}", view.obs_dim);
+        }
+        view.validate()?;
+        let ac = ActorCritic::new(
+            view,
+            ad,
+            &net.actor_hidden,
+            &net.critic_hidden,
+            &net.estimator_hidden,
+            net.init_noise_std,
+            &mut rng,
+        )?;
+        let est_dim = ac.view.estimate_dim();
         let symmetry = env.symmetry();
         for (key, on) in [
             ("losses.symmetry_augmentation", cfg.losses.symmetry_augmentation),
@@ -139,7 +155,8 @@ impl Trainer {
                 );
             }
         }
-        let policy = Agent::new(ac, cfg.ppo.clone(), cfg.losses.clone(), symmetry.clone());
+        let policy =
+            Agent::new(ac, cfg.ppo.clone(), cfg.losses.clone(), symmetry.clone(), net.estimator_learning_rate)?;
         let (adversary, schedule) = if with_adversary {
             let channels = env.perturbation_channels();
             let pd = perturbation_dim(&channels);
@@ -147,13 +164,15 @@ impl Trainer {
                 invalid!("this task takes no perturbations, so it cannot be trained with an adversary");
             }
             let a = &cfg.adversary;
-            let ac = ActorCritic::new(od, pd, &a.hidden, &a.hidden, net.init_noise_std, &mut rng)?;
+            // The adversary reads the whole row, privileged values included: it is never deployed.
+            let ac =
+                ActorCritic::new(ActorView::whole(od), pd, &a.hidden, &a.hidden, &[], net.init_noise_std, &mut rng)?;
             let mut ppo = cfg.ppo.clone();
             ppo.learning_rate = a.learning_rate;
             ppo.entropy_coef = a.entropy_coef;
             // No symmetry or decay for the adversary: the paper applies them to the locomotion policy.
             let losses = LossConfig { symmetry_coef: 0.0, decay_coef: 0.0, symmetry_augmentation: false };
-            let agent = Agent::new(ac, ppo, losses, None);
+            let agent = Agent::new(ac, ppo, losses, None, 0.0)?;
             let sched = a.schedule();
             let bounds = adversary::bounds(&channels);
             let mirror = if a.mirror_attacks {
@@ -175,7 +194,7 @@ impl Trainer {
         let steps = cfg.run.steps_per_env;
         let adversary_rollout = adversary.as_ref().map(|a| Rollout::new(steps, n, od, a.bounds.len()));
         let mut t = Trainer {
-            policy_rollout: Rollout::new(steps, n, od, ad),
+            policy_rollout: Rollout::new(steps, n, od, ad).with_estimates(est_dim),
             adversary_rollout,
             scratch: Scratch::default(),
             cfg,
@@ -326,6 +345,7 @@ impl Trainer {
         for v in [&mut s.adv_actions, &mut s.adv_means, &mut s.perturbation] {
             v.resize(n * pd, 0.0);
         }
+        s.estimates.resize(n * self.policy.ac.view.estimate_dim(), 0.0);
         if pd > 0 && !adversary_acts {
             self.env.set_perturbations(&vec![0.0; n * pd]).map_err(Error::env("clearing the perturbations"))?;
         }
@@ -352,6 +372,7 @@ impl Trainer {
                     means: &mut s.means,
                     log_probs: &mut s.log_probs,
                     values: &mut s.values,
+                    estimates: &mut s.estimates,
                 };
                 self.policy.act(&s.raw_obs, &mut self.rng, false, out)?;
             }
@@ -370,6 +391,7 @@ impl Trainer {
                         means: &mut s.adv_means,
                         log_probs: &mut s.adv_log_probs,
                         values: &mut s.adv_values,
+                        estimates: &mut [],
                     };
                     a.agent.act(adv_obs, &mut self.rng, self.cfg.adversary.sample_when_frozen, out)?;
                 }

@@ -4,6 +4,7 @@
 
 pub use crate::error::EnvFailure;
 
+use crate::actor_view::ActorView;
 use crate::symmetry::{SignedPermutation, Symmetry};
 
 /// Statistics of the episodes that ended since the last `take_episode_stats`.
@@ -89,6 +90,11 @@ pub trait VecEnv: Send {
     fn term_names(&self) -> Vec<String>;
     fn take_episode_stats(&mut self) -> EpisodeStats;
     fn symmetry(&self) -> Option<Symmetry>;
+    /// What the actor reads of the observation row: all of it (the default), or its first values and the
+    /// estimate of privileged columns that close it (an asymmetric actor–critic with a concurrent estimator).
+    fn actor_view(&self) -> ActorView {
+        ActorView::whole(self.obs_dim())
+    }
     /// What an adversary may perturb, in the order of the perturbation vector (empty: nothing).
     fn perturbation_channels(&self) -> Vec<PerturbationChannel>;
     /// Sets every env's perturbation (num_envs × the channels' total size).

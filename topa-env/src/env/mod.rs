@@ -533,6 +533,9 @@ impl Task for RobotEnv {
     fn symmetry(&self) -> Option<Symmetry> {
         Some(symmetry::for_layout(&self.layout, &self.idx.mirror_perm, &self.idx.mirror_sign))
     }
+    fn actor_view(&self) -> trainer::actor_view::ActorView {
+        self.cfg.observation.actor_view(&self.layout)
+    }
     fn perturbation_channels(&self) -> Vec<trainer::PerturbationChannel> {
         crate::perturb::channels(&self.cfg.adversary)
     }

@@ -5,7 +5,6 @@
 //! is its own smallest form; a combination is explained by its members that fail alone, else by its smallest
 //! failing subset.
 
-
 use topa_env::policy_runner::PolicyRunner;
 
 use super::flip::{Finding, Flip};
