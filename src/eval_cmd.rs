@@ -8,7 +8,7 @@ use crate::print::print_json;
 use topa_env::policy_runner::PolicyRunner;
 use topa_eval::{
     course, course_map, endurance, heatmaps, noise, progress, progress_plot, push, report, terrain, terrain_map,
-    tracking,
+    tracking, velocity,
 };
 
 pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
@@ -155,6 +155,15 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
                 return print_json(&result);
             }
             println!("{}", endurance::markdown(&result));
+        }
+        EvalCmd::Velocity { policy, seconds, command_seconds } => {
+            let mut r = PolicyRunner::load(&policy, "policy")?;
+            let result = velocity::run(&mut r, &s, seconds, command_seconds)?;
+            report::write_json(&c.out, "velocity.json", &result)?;
+            if c.json {
+                return print_json(&result);
+            }
+            println!("{}", velocity::markdown(&result));
         }
     }
     Ok(())

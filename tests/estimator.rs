@@ -6,6 +6,9 @@ use std::path::{Path, PathBuf};
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use topa_env::policy_runner::PolicyRunner;
+use topa_eval::settings::{EvalSettings, Sim2SimMode};
+use topa_eval::velocity;
 use tract_onnx::prelude::*;
 use trainer::policy_file::Policy;
 
@@ -123,6 +126,23 @@ fn the_estimator_learns_the_velocity_and_ships_inside_the_policy() {
     let worst = a.iter().zip(&onnx_actions).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
     assert!(worst < 1e-5, "ONNX and topa differ by {worst}");
     topa_tools::export::check(&onnx, &run.join("policy.json")).unwrap();
+
+    // On a walk in the realistic sim2sim, the learned estimate and the Kalman filter's are both measured against
+    // the truth; the policy does not read the filter, so a filter with other parameters sees the very same walk.
+    let mut runner = PolicyRunner::load(&run.join("policy.json"), "estimated").unwrap();
+    let realistic = EvalSettings::default().with_sim2sim(&Sim2SimMode::Realistic).unwrap();
+    let a = velocity::run(&mut runner, &realistic, 4.0, 1.0).unwrap();
+    let (learned, filter) = (a.learned.unwrap(), a.filter.unwrap());
+    assert!(a.steps > 0 && learned.horizontal.is_finite() && filter.horizontal > 0.0, "{a:?}");
+    assert_ne!(learned, filter);
+    let mut other = realistic.clone();
+    other.sim2sim.estimator.filter.q_velocity *= 10.0;
+    let b = velocity::run(&mut runner, &other, 4.0, 1.0).unwrap();
+    assert_eq!((a.walk_checksum, a.learned), (b.walk_checksum, b.learned), "the same walk, the same estimate");
+    assert_ne!(a.filter, b.filter, "another filter's error on it");
+    // A policy that reads the velocity has no estimate of its own.
+    let mut shipped = PolicyRunner::load(Path::new("assets/policies/C/seed1.json"), "C").unwrap();
+    assert_eq!(velocity::run(&mut shipped, &realistic, 1.0, 1.0).unwrap().learned, None);
     std::fs::remove_dir_all(dir).ok();
 }
 

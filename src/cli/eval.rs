@@ -194,6 +194,18 @@ pub(crate) enum EvalCmd {
         #[arg(long, value_parser = crate::cli::values::at_least_one, default_value_t = 1)]
         runs: usize,
     },
+    /// The base velocity as the robot knows it — a velocity-free policy's learned estimate, the Kalman filter's
+    /// (with `--sim2sim realistic` or a file) — against the truth, on one walk through a cycle of commands.
+    Velocity {
+        #[arg(long)]
+        policy: PathBuf,
+        /// Seconds of walking.
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 48.0)]
+        seconds: f64,
+        /// Seconds per command of the cycle.
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 4.0)]
+        command_seconds: f64,
+    },
 }
 
 /// The terrain test's protocol.

@@ -50,6 +50,7 @@ pub mod terrain;
 pub mod terrain_map;
 pub mod terrain_report;
 pub mod tracking;
+pub mod velocity;
 pub mod video;
 
 pub use error::{Error, Result};
