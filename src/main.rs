@@ -91,7 +91,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             println!("{} panels → {} (and {})", layout.len(), out.display(), out.with_extension("svg").display());
             Ok(())
         }
-        Cmd::Export { policy, onnx, motor_targets, check } => {
+        Cmd::Export { policy, onnx, controller, motor_targets, check } => {
+            if let Some(dir) = &controller {
+                anyhow::ensure!(!check, "--check checks an ONNX file: drop --controller");
+                let spec = topa_tools::controller_export::export(&policy, dir)?;
+                println!(
+                    "wrote {} ({} motors, {} inputs, base velocity {:?})",
+                    dir.join("controller.json").display(),
+                    spec.n_motors(),
+                    spec.observation.inputs,
+                    spec.observation.base_velocity
+                );
+            }
+            let Some(onnx) = onnx else { return Ok(()) };
             if check {
                 topa_tools::export::check(&onnx, &policy)?;
                 println!("{} was exported from {}", onnx.display(), policy.display());

@@ -184,14 +184,18 @@ pub(crate) enum Cmd {
         #[arg(long, default_value = "out/dashboard.png")]
         out: PathBuf,
     },
-    /// Export a policy for the robot's computer: ONNX with the observation normaliser in the graph.
+    /// Export a policy for the robot's computer: ONNX with the observation normaliser in the graph, and/or the
+    /// controller file that `topa_control` (the robot-side controller) loads.
     Export {
         /// The policy (.json sidecar).
         #[arg(long)]
         policy: PathBuf,
         /// Output ONNX file.
+        #[arg(long, required_unless_present = "controller")]
+        onnx: Option<PathBuf>,
+        /// Output folder of the controller file (controller.json and the policy's weights).
         #[arg(long)]
-        onnx: PathBuf,
+        controller: Option<PathBuf>,
         /// Also output `motor_targets` (nominal pose + action scale · clipped action, clamped to the motor range).
         #[arg(long)]
         motor_targets: bool,

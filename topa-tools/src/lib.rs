@@ -15,6 +15,7 @@
 
 pub mod bench;
 pub mod config_reference;
+pub mod controller_export;
 pub mod error;
 pub mod export;
 pub mod info;
