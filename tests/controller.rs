@@ -317,3 +317,46 @@ fn bad_controller_files_are_one_clear_error_each() {
     assert!(e.contains("missing"), "{e}");
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// The loop a robot's driver runs: a driver whose sensors go silent gets damping within three periods, and every
+/// period gets a command.
+#[test]
+fn through_the_driver_loop_a_silent_robot_is_damped_within_three_periods() {
+    use topa_control::driver::{run_period, Driver, Readings};
+    struct Fake {
+        t: f64,
+        pos: Vec<f64>,
+        silent_from: f64,
+        sent: Vec<Mode>,
+    }
+    impl Driver for Fake {
+        fn now(&self) -> f64 {
+            self.t
+        }
+        fn read(&mut self, r: &mut Readings) -> bool {
+            r.timestamp_s = self.t;
+            r.motor_pos.copy_from_slice(&self.pos);
+            r.base_velocity = Some([0.0; 3]);
+            self.t < self.silent_from
+        }
+        fn send(&mut self, c: &topa_control::MotorCommand) {
+            self.sent.push(c.mode);
+        }
+    }
+    let dir = tempdir("driver");
+    let mut c = controller(Path::new("assets/policies/CA/seed1.json"), &dir);
+    let dt = c.spec().control_period_s;
+    let pos: Vec<f64> = c.spec().motors.iter().map(|m| m.nominal).collect();
+    let mut d = Fake { t: 0.0, pos, silent_from: 50.5 * dt, sent: Vec::new() };
+    let mut r = Readings::new(c.spec().n_motors());
+    c.start();
+    for k in 0..60 {
+        d.t = k as f64 * dt;
+        run_period(&mut c, &mut d, &mut r);
+    }
+    assert_eq!(d.sent.len(), 60, "a command every period");
+    assert_eq!(d.sent[50], Mode::Policy);
+    let damped = d.sent.iter().position(|m| *m == Mode::Damping(Fault::Stale)).unwrap();
+    assert!((52..=54).contains(&damped), "damping {} periods after the last frame", damped - 50);
+    std::fs::remove_dir_all(dir).ok();
+}

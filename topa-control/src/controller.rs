@@ -127,6 +127,11 @@ impl Controller {
         self.mode
     }
 
+    /// The last command the controller gave.
+    pub fn command_sent(&self) -> &MotorCommand {
+        &self.out
+    }
+
     /// Passive → soft start (from the pose of the next frame). Ignored in other modes.
     pub fn start(&mut self) {
         if self.mode == Mode::Passive {

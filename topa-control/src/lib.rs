@@ -26,6 +26,7 @@
 //! ```
 
 pub mod controller;
+pub mod driver;
 pub mod error;
 pub mod network;
 pub mod observation;
