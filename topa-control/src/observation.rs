@@ -107,8 +107,8 @@ impl ObservationWriter {
             c[6 + 2 * n + i] = p.last_action[i] as f32;
         }
         if l.base_velocity == BaseVelocity::Observed {
-            for i in 0..3 {
-                row[i] = p.base_velocity[i] as f32;
+            for (r, v) in row.iter_mut().zip(p.base_velocity) {
+                *r = v as f32;
             }
         }
         let f = l.frame();
