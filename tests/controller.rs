@@ -2,9 +2,7 @@
 //! simulator's readings it sends the targets the evaluation sends (the paper's C+A, O through its linkage map, a
 //! velocity-free policy with its estimator); a tick allocates nothing; every failure drill ends in damping.
 
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use topa_control::{Controller, Fault, FrameRefused, Mode, SensorFrame};
 use topa_env::policy_runner::PolicyRunner;
@@ -13,33 +11,6 @@ use topa_eval::settings::EvalSettings;
 
 mod common;
 
-/// Counts the allocations of the threads that ask for it (the no-allocation test, around its ticks; the other
-/// tests run on other threads of this binary at the same time).
-struct Counting;
-static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
-thread_local! {
-    static COUNTED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
-}
-fn count() {
-    if COUNTED.with(|c| c.get()) {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-    }
-}
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        count();
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        unsafe { System.dealloc(p, l) }
-    }
-    unsafe fn realloc(&self, p: *mut u8, l: Layout, size: usize) -> *mut u8 {
-        count();
-        unsafe { System.realloc(p, l, size) }
-    }
-}
-#[global_allocator]
-static GLOBAL: Counting = Counting;
 
 fn tempdir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("topa-controller-{tag}-{}", std::process::id()));
@@ -171,15 +142,15 @@ fn a_tick_allocates_nothing_and_every_drill_ends_in_damping() {
     c.tick(&frame(0.0, &pos, &vel)).unwrap();
     c.tick(&frame(dt, &pos, &vel)).unwrap();
     // 10 000 ticks of the policy: no allocation.
-    let before = ALLOCATIONS.load(Ordering::Relaxed);
-    COUNTED.with(|c| c.set(true));
+    // (allocation-counter counts this thread's allocations: the other tests of this binary run on others.)
     let mut policy_ticks = 0;
-    for k in 2..10_002 {
-        let out = c.tick(&frame(k as f64 * dt, &pos, &vel)).unwrap();
-        policy_ticks += usize::from(out.mode == Mode::Policy);
-    }
-    COUNTED.with(|c| c.set(false));
-    let allocated = ALLOCATIONS.load(Ordering::Relaxed) - before;
+    let allocated = allocation_counter::measure(|| {
+        for k in 2..10_002 {
+            let out = c.tick(&frame(k as f64 * dt, &pos, &vel)).unwrap();
+            policy_ticks += usize::from(out.mode == Mode::Policy);
+        }
+    })
+    .count_total;
     assert_eq!(policy_ticks, 10_000);
     assert_eq!(allocated, 0, "{allocated} allocations in 10 000 ticks");
     let mut t = 10_002.0 * dt;
