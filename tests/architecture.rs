@@ -10,7 +10,8 @@ fn root() -> &'static Path {
 }
 
 /// The library crates, each a folder at the root; the command line is the root package (`src/`).
-const LIBRARIES: [&str; 9] = [
+const LIBRARIES: [&str; 10] = [
+    "topa-control",
     "mujoco-sys",
     "mujoco",
     "trainer",

@@ -11,7 +11,6 @@ use topa_eval::settings::EvalSettings;
 
 mod common;
 
-
 fn tempdir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("topa-controller-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);

@@ -6,6 +6,9 @@ use std::path::PathBuf;
 pub enum Error {
     #[error("controller file {path}: {message}")]
     File { path: PathBuf, message: String },
+    /// A controller spec that does not validate (the message names the key).
+    #[error("{0}")]
+    Invalid(String),
     #[error("cannot read {path}: {source}")]
     Io { path: PathBuf, source: std::io::Error },
 }

@@ -5,7 +5,19 @@
 
 use nalgebra::{UnitQuaternion, Vector3};
 
-use crate::spec::BaseVelocity;
+use serde::{Deserialize, Serialize};
+
+/// What the policy reads of the base velocity, and how many earlier frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BaseVelocity {
+    /// The row starts with v: the driver must supply it (its own estimator, motion capture).
+    Observed,
+    /// The policy's own estimator infers it.
+    Estimated,
+    /// The policy reads none.
+    None,
+}
 
 /// Offsets of the blocks in the row for `n` motors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

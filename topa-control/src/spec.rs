@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+pub use crate::observation::BaseVelocity;
 
 pub const FORMAT: &str = "topa-controller";
 pub const VERSION: u32 = 1;
@@ -55,18 +56,6 @@ pub struct MotorSpec {
     /// The PD gains the policy was trained with (N·m/rad, N·m·s/rad).
     pub kp: f64,
     pub kd: f64,
-}
-
-/// What the policy reads of the base velocity, and how many earlier frames.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum BaseVelocity {
-    /// The row starts with v: the driver must supply it (its own estimator, motion capture).
-    Observed,
-    /// The policy's own estimator infers it.
-    Estimated,
-    /// The policy reads none.
-    None,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -124,7 +113,7 @@ impl ControllerSpec {
                 spec.format, spec.version
             )));
         }
-        spec.validate().map_err(bad)?;
+        spec.validate().map_err(|e| bad(e.to_string()))?;
         let weights = json.parent().unwrap_or(Path::new(".")).join(&spec.weights);
         Ok((spec, weights))
     }
@@ -134,15 +123,18 @@ impl ControllerSpec {
     }
 
     /// Sizes, finite values and ranges; a message naming the key otherwise.
-    pub fn validate(&self) -> std::result::Result<(), String> {
+    pub fn validate(&self) -> Result<()> {
         let n = self.n_motors();
         if n == 0 {
-            return Err("motors: none".into());
+            return Err(Error::Invalid("motors: none".into()));
         }
         for m in &self.motors {
             let vals = [m.range[0], m.range[1], m.nominal, m.action_zero, m.kp, m.kd];
             if vals.iter().any(|v| !v.is_finite()) || m.range[0] >= m.range[1] || m.kp < 0.0 || m.kd < 0.0 {
-                return Err(format!("motor '{}': ranges, pose and gains must be finite, gains ≥ 0", m.name));
+                return Err(Error::Invalid(format!(
+                    "motor '{}': ranges, pose and gains must be finite, gains ≥ 0",
+                    m.name
+                )));
             }
         }
         let positive = [
@@ -154,26 +146,26 @@ impl ControllerSpec {
             ("safety.soft_start_s", self.safety.soft_start_s),
         ];
         if let Some((k, v)) = positive.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
-            return Err(format!("{k} must be positive, got {v}"));
+            return Err(Error::Invalid(format!("{k} must be positive, got {v}")));
         }
         let o = &self.observation;
         let expect = crate::observation::Layout::new(n, o.base_velocity, o.history);
         if o.inputs != expect.inputs() || o.row != expect.row() {
-            return Err(format!(
+            return Err(Error::Invalid(format!(
                 "observation: {} inputs in a row of {}, but {n} motors with this velocity and history make {} in {}",
                 o.inputs,
                 o.row,
                 expect.inputs(),
                 expect.row()
-            ));
+            )));
         }
         if let Some([j, inv]) = &self.joint_map {
             if j.len() != n * n || inv.len() != n * n || j.iter().chain(inv).any(|v| !v.is_finite()) {
-                return Err(format!("joint_map: two finite {n} × {n} matrices"));
+                return Err(Error::Invalid(format!("joint_map: two finite {n} × {n} matrices")));
             }
         }
         if (o.base_velocity == BaseVelocity::Estimated) != self.estimator_hidden.is_some() {
-            return Err("estimator_hidden: given exactly when the base velocity is estimated".into());
+            return Err(Error::Invalid("estimator_hidden: given exactly when the base velocity is estimated".into()));
         }
         Ok(())
     }
