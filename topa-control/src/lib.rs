@@ -31,6 +31,7 @@ pub mod error;
 pub mod network;
 pub mod observation;
 pub mod spec;
+pub mod transport;
 pub mod wire;
 
 pub use controller::{Controller, Counters, Fault, Mode, MotorCommand, SensorFrame};
