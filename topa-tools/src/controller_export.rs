@@ -9,12 +9,17 @@ use topa_env::indices::RobotIndices;
 use topa_env::observation::{self as obs};
 use topa_env::policy_runner::PolicyRunner;
 use topa_env::spec::RobotSpec;
+use trainer::policy_file;
 
 use crate::error::{bad_file, Error, Result};
 
 /// The controller file of the policy at `policy_path` for the robot it runs on.
 pub fn spec(policy_path: &Path) -> Result<ControllerSpec> {
-    let runner = PolicyRunner::load(policy_path, "controller")?;
+    spec_of(&PolicyRunner::load(policy_path, "controller")?, policy_path)
+}
+
+/// The controller file of `runner`'s policy, loaded from `policy_path`.
+fn spec_of(runner: &PolicyRunner, policy_path: &Path) -> Result<ControllerSpec> {
     let m = &runner.policy.meta;
     let layout = runner.layout();
     if layout.scan != (0, 0) {
@@ -74,14 +79,10 @@ pub fn spec(policy_path: &Path) -> Result<ControllerSpec> {
 
 /// Writes `dir/controller.json` and `dir/policy.safetensors` (atomically); returns the spec.
 pub fn export(policy_path: &Path, dir: &Path) -> Result<ControllerSpec> {
-    let spec = spec(policy_path)?;
+    let runner = PolicyRunner::load(policy_path, "controller")?;
+    let spec = spec_of(&runner, policy_path)?;
     std::fs::create_dir_all(dir).map_err(Error::io("creating", dir))?;
-    let json = if policy_path.extension().is_some_and(|e| e == "safetensors") {
-        policy_path.with_extension("json")
-    } else {
-        policy_path.to_path_buf()
-    };
-    let weights = json.parent().unwrap_or(Path::new(".")).join(&PolicyRunner::load(&json, "w")?.policy.meta.weights);
+    let weights = policy_file::weights_path(&policy_file::sidecar_path(policy_path), &runner.policy.meta);
     let bytes = std::fs::read(&weights).map_err(Error::io("cannot read", &weights))?;
     trainer::tensorfile::write_atomic(&dir.join(&spec.weights), &bytes)?;
     let text = serde_json::to_string_pretty(&spec)?;

@@ -6,7 +6,7 @@ use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 
 use crate::actor_view::ActorView;
-use crate::nn::{Mlp, MlpScratch};
+use crate::nn::{layer_dims, Mlp, MlpScratch};
 
 pub struct ActorCritic {
     pub actor: Mlp,
@@ -35,9 +35,7 @@ impl ActorCritic {
         init_std: f64,
         rng: &mut ChaCha8Rng,
     ) -> Result<Self> {
-        let dims = |input: usize, hidden: &[usize], out: usize| -> Vec<usize> {
-            std::iter::once(input).chain(hidden.iter().copied()).chain(std::iter::once(out)).collect()
-        };
+        let dims = layer_dims;
         let obs_dim = view.obs_dim;
         let actor = Mlp::new(&dims(view.dim(), actor_hidden, act_dim), rng)?;
         let critic = Mlp::new(&dims(obs_dim, critic_hidden, 1), rng)?;
@@ -81,16 +79,47 @@ pub fn named_mlp(prefix: &str, mlp: &Mlp) -> Vec<(String, Var)> {
         .collect()
 }
 
+/// Buffers of the actor's inference (reused every call): its scratch and, when its view is not the whole
+/// observation, its rows, the estimator's inputs, scratch and outputs.
+#[derive(Default)]
+pub struct ActorBuffers {
+    pub actor: MlpScratch,
+    pub estimator: MlpScratch,
+    pub actor_in: Vec<f32>,
+    pub estimator_in: Vec<f32>,
+    /// The estimator's outputs of the last call (rows × its size; empty without an estimator).
+    pub estimate: Vec<f32>,
+}
+
+/// The actor's means for `rows` normalised observation rows `norm` through `view`: the rows themselves for a whole
+/// view; else the actor's inputs, then the estimator's estimate of the view's columns when there is an estimator.
+/// The one forward pass of rollouts and of loaded policies.
+pub fn actor_forward(
+    view: &ActorView,
+    actor: &Mlp,
+    estimator: Option<&Mlp>,
+    norm: &[f32],
+    rows: usize,
+    mean: &mut Vec<f32>,
+    b: &mut ActorBuffers,
+) {
+    if view.is_whole() {
+        return actor.forward_inference(norm, rows, mean, &mut b.actor);
+    }
+    b.estimate.clear();
+    if let Some(e) = estimator {
+        view.inputs_of(norm, &mut b.estimator_in);
+        e.forward_inference(&b.estimator_in, rows, &mut b.estimate, &mut b.estimator);
+    }
+    view.assemble(norm, &b.estimate, &mut b.actor_in);
+    actor.forward_inference(&b.actor_in, rows, mean, &mut b.actor);
+}
+
 /// Buffers for batched inference during rollouts (reused every step).
 #[derive(Default)]
 pub struct InferenceBuffers {
-    pub actor: MlpScratch,
+    pub actor: ActorBuffers,
     pub critic: MlpScratch,
-    pub estimator: MlpScratch,
-    /// The actor's rows when its view is not the whole observation, and the estimator's inputs and outputs.
-    pub actor_in: Vec<f32>,
-    pub estimator_in: Vec<f32>,
-    pub estimate: Vec<f32>,
     pub mean: Vec<f32>,
     pub value: Vec<f32>,
 }

@@ -8,9 +8,9 @@ use crate::error::{bad_file, Error, Result};
 use candle_core::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 
-use crate::actor_critic::named_mlp;
+use crate::actor_critic::{actor_forward, named_mlp, ActorBuffers};
 use crate::actor_view::ActorView;
-use crate::nn::{Activation, Linear, Mlp, MlpScratch};
+use crate::nn::{layer_dims, Activation, Linear, Mlp};
 use crate::normalizer::{Normalizer, STD_EPS};
 use crate::tensorfile::{checksum, read_sidecar, write_atomic, Bundle, Loaded, SidecarKind};
 
@@ -67,11 +67,7 @@ pub struct PolicyMeta {
 #[derive(Default)]
 struct InferenceBuffers {
     norm: Vec<f32>,
-    actor: MlpScratch,
-    estimator: MlpScratch,
-    estimator_in: Vec<f32>,
-    estimate: Vec<f32>,
-    actor_in: Vec<f32>,
+    actor: ActorBuffers,
 }
 
 /// A loaded policy: deterministic actions (the Gaussian's mean) from raw observations.
@@ -146,11 +142,6 @@ pub(crate) fn read_mlp(l: &Loaded, prefix: &str, net: &str, dims: &[usize]) -> R
     Ok(Mlp { layers, hidden_activation: Activation::Elu })
 }
 
-/// `[input, hidden…, output]`.
-fn layer_dims(input: usize, hidden: &[usize], output: usize) -> Vec<usize> {
-    std::iter::once(input).chain(hidden.iter().copied()).chain(std::iter::once(output)).collect()
-}
-
 /// The actor and (with an estimating view) the estimator of a policy described by `meta`, stored under `prefix`.
 pub(crate) fn read_networks(l: &Loaded, prefix: &str, meta: &PolicyMeta) -> Result<(ActorView, Mlp, Option<Mlp>)> {
     let view = meta.actor_view.clone().unwrap_or_else(|| ActorView::whole(meta.obs_dim));
@@ -171,15 +162,25 @@ pub(crate) fn read_networks(l: &Loaded, prefix: &str, meta: &PolicyMeta) -> Resu
     Ok((view, actor, estimator))
 }
 
+/// The sidecar of a policy named by either of its files.
+pub fn sidecar_path(path: &Path) -> PathBuf {
+    if path.extension().is_some_and(|e| e == "safetensors") {
+        path.with_extension("json")
+    } else {
+        path.to_path_buf()
+    }
+}
+
+/// The weights file of the policy whose sidecar is `json` and says `meta`.
+pub fn weights_path(json: &Path, meta: &PolicyMeta) -> PathBuf {
+    json.parent().unwrap_or(Path::new(".")).join(&meta.weights)
+}
+
 impl Policy {
     /// Loads `path` (the `.json` sidecar, or the `.safetensors` next to it), validating format, version,
     /// checksum, names, shapes and values.
     pub fn load(path: &Path) -> Result<Policy> {
-        let json = if path.extension().is_some_and(|e| e == "safetensors") {
-            path.with_extension("json")
-        } else {
-            path.to_path_buf()
-        };
+        let json = sidecar_path(path);
         let kind = SidecarKind {
             kind: "policy",
             format: FORMAT,
@@ -187,7 +188,7 @@ impl Policy {
             hint: " (pass the .json sidecar or its .safetensors)",
         };
         let (meta, l): (PolicyMeta, Loaded) = read_sidecar(&json, &kind)?;
-        let weights = json.parent().unwrap_or(Path::new(".")).join(&meta.weights);
+        let weights = weights_path(&json, &meta);
         let (view, actor, estimator) =
             read_networks(&l, "", &meta).map_err(|e| Error::file(weights.display().to_string(), e))?;
         let mut normalizer = Normalizer::new(meta.obs_dim, None);
@@ -215,17 +216,7 @@ impl Policy {
         let b = &mut self.buffers;
         b.norm.resize(obs.len(), 0.0);
         self.normalizer.normalize(obs, &mut b.norm);
-        if self.view.is_whole() {
-            self.actor.forward_inference(&b.norm, rows, actions, &mut b.actor);
-            return;
-        }
-        b.estimate.clear();
-        if let Some(e) = &self.estimator {
-            self.view.inputs_of(&b.norm, &mut b.estimator_in);
-            e.forward_inference(&b.estimator_in, rows, &mut b.estimate, &mut b.estimator);
-        }
-        self.view.assemble(&b.norm, &b.estimate, &mut b.actor_in);
-        self.actor.forward_inference(&b.actor_in, rows, actions, &mut b.actor);
+        actor_forward(&self.view, &self.actor, self.estimator.as_ref(), &b.norm, rows, actions, &mut b.actor);
     }
 
     /// The estimator's output for the last `act` (rows × its size, in the estimated values' units), if any.
@@ -235,6 +226,7 @@ impl Policy {
         let e = c.len();
         Some(
             self.buffers
+                .actor
                 .estimate
                 .iter()
                 .enumerate()

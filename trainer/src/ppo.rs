@@ -102,17 +102,16 @@ impl Agent {
         self.update_normalizer(raw_obs);
         self.normalizer.normalize(raw_obs, out.obs_norm);
         let (ac, b) = (&self.ac, &mut self.buffers);
-        if ac.view.is_whole() {
-            ac.actor.forward_inference(out.obs_norm, rows, &mut b.mean, &mut b.actor);
-        } else {
-            if let Some(e) = &ac.estimator {
-                ac.view.inputs_of(out.obs_norm, &mut b.estimator_in);
-                e.forward_inference(&b.estimator_in, rows, &mut b.estimate, &mut b.estimator);
-                out.estimates.copy_from_slice(&b.estimate);
-            }
-            ac.view.assemble(out.obs_norm, &b.estimate, &mut b.actor_in);
-            ac.actor.forward_inference(&b.actor_in, rows, &mut b.mean, &mut b.actor);
-        }
+        actor_critic::actor_forward(
+            &ac.view,
+            &ac.actor,
+            ac.estimator.as_ref(),
+            out.obs_norm,
+            rows,
+            &mut b.mean,
+            &mut b.actor,
+        );
+        out.estimates.copy_from_slice(&b.actor.estimate);
         ac.critic.forward_inference(out.obs_norm, rows, &mut b.value, &mut b.critic);
         out.means.copy_from_slice(&b.mean);
         out.values.copy_from_slice(&b.value);
@@ -156,6 +155,7 @@ impl Agent {
         let mut idx: Vec<usize> = (0..n).collect();
         let augment = self.symmetry.clone().filter(|_| self.losses.symmetry_augmentation);
         let mut buf = Batch::with_capacity(if augment.is_some() { 2 * mb } else { mb }, od, ad);
+        let scale = estimate_scale(&self.normalizer, &self.ac.view);
         for _ in 0..self.ppo.epochs {
             // Fisher–Yates with our stream, so the minibatches are part of the seeded run.
             for i in (1..n).rev() {
@@ -166,7 +166,7 @@ impl Agent {
                 if let (Some(sym), Some(actor)) = (&augment, &self.actor_symmetry) {
                     buf.append_mirror(sym, &actor.obs);
                 }
-                self.minibatch_step(&buf, &r.std, &mut stats)?;
+                self.minibatch_step(&buf, &r.std, &scale, &mut stats)?;
             }
         }
         let m = stats.minibatches.max(1) as f64;
@@ -188,7 +188,8 @@ impl Agent {
         Ok(stats)
     }
 
-    fn minibatch_step(&mut self, b: &Batch, old_std: &[f32], stats: &mut UpdateStats) -> Result<()> {
+    /// `scale`: the estimated columns' normaliser scale (the normaliser does not change during an update).
+    fn minibatch_step(&mut self, b: &Batch, old_std: &[f32], scale: &[f32], stats: &mut UpdateStats) -> Result<()> {
         let rows = b.rows;
         let obs = Tensor::from_slice(&b.obs, (rows, self.ac.obs_dim), &Device::Cpu)?;
         let actor_obs = if self.ac.view.is_whole() {
@@ -223,8 +224,7 @@ impl Agent {
         let kl = actor_critic::mean_kl(&b.means[..b.sampled_rows() * self.ac.act_dim], old_std, &new_mean, &new_std);
         stats.minibatches += 1;
         if let (Some(learner), Some(net)) = (&mut self.estimator, &self.ac.estimator) {
-            let scale = estimate_scale(&self.normalizer, &self.ac.view);
-            let step = learner.step(net, &self.ac.view, &obs, &scale, self.comm.as_ref())?;
+            let step = learner.step(net, &self.ac.view, &obs, scale, self.comm.as_ref())?;
             stats.estimator_loss += step.loss;
             stats.estimator_rmse += step.rmse;
         }

@@ -123,6 +123,11 @@ pub fn linear_reference(x: &Tensor, layer: &Linear, act: Activation) -> Result<T
     }
 }
 
+/// An MLP's layer sizes: `[input, hidden…, output]`.
+pub fn layer_dims(input: usize, hidden: &[usize], output: usize) -> Vec<usize> {
+    std::iter::once(input).chain(hidden.iter().copied()).chain(std::iter::once(output)).collect()
+}
+
 /// A multi-layer perceptron: `hidden_activation` after every layer but the last, which is linear.
 #[derive(Clone, Debug)]
 pub struct Mlp {
