@@ -8,6 +8,7 @@ mod print;
 mod robot_cmd;
 mod sysid_cmd;
 mod train_cmd;
+mod wire_cmd;
 
 use std::process::ExitCode;
 
@@ -69,6 +70,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             groups_cmd::report_terrain(&r, &common)
         }
         Cmd::Robot(cmd) => robot_cmd::run(cmd),
+        Cmd::SimRobot(a) => wire_cmd::sim_robot(a),
+        Cmd::Control(a) => wire_cmd::control(a),
         Cmd::Sysid(cmd) => sysid_cmd::run(cmd),
         Cmd::Field { merge, common, .. } if !merge.is_empty() => groups_cmd::merge_field(&merge, common),
         Cmd::Field { groups, course, speeds, minutes, modes, common, .. } => {

@@ -11,10 +11,12 @@ mod robot;
 mod sysid;
 mod train;
 mod values;
+pub(crate) mod wire;
 
 pub(crate) use eval::{Common, EvalCmd, PhysicsArgs, QualityArg, TerrainArgs, VideoArgs};
 pub(crate) use groups::{Groups, Sim2SimArg};
 pub(crate) use robot::RobotCmd;
+pub(crate) use wire::{ControlArgs, SimRobotArgs};
 pub(crate) use sysid::SysidCmd;
 pub(crate) use train::TrainArgs;
 
@@ -205,6 +207,12 @@ pub(crate) enum Cmd {
     },
     /// Train a policy with PPO (symmetry loss, last-layer decay; --adversary for the cyclic adversary).
     Train(TrainArgs),
+    /// The simulator as a robot on the wire: MuJoCo in real time, the drives' PD and watchdog on its side, sensor
+    /// frames to a controller in another process (`topa control`) and its motor commands back, over UDP.
+    SimRobot(SimRobotArgs),
+    /// The robot-side controller on a robot on the wire (a real robot's bridge, or `topa sim-robot`): the
+    /// state machine, the observation and the policy, one period per sensor frame; operator messages on a socket.
+    Control(ControlArgs),
 }
 
 #[derive(Subcommand)]

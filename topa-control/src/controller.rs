@@ -132,11 +132,12 @@ impl Controller {
         &self.out
     }
 
-    /// Passive → soft start (from the pose of the next frame). Ignored in other modes.
+    /// Passive → soft start (from the pose of the next frame), on a zero command. Ignored in other modes.
     pub fn start(&mut self) {
         if self.mode == Mode::Passive {
             self.mode = Mode::SoftStart;
             self.soft_t0 = None;
+            self.command = [0.0; 3];
         }
     }
 

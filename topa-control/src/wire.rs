@@ -6,28 +6,30 @@
 //! |---:|---:|---|
 //! | 0 | 4 | magic `TOPA` |
 //! | 4 | 1 | version (1) |
-//! | 5 | 1 | kind: 1 sensor frame, 2 motor command |
-//! | 6 | 1 | flags: sensor frame — bit 0 set when the base velocity is given; command — the mode (0 passive, 1 soft start, 2 policy, 3 damping) |
+//! | 5 | 1 | kind: 1 sensor frame, 2 motor command, 3 operator message |
+//! | 6 | 1 | flags: sensor frame — bit 0 set when the base velocity is given; command — the mode (0 passive, 1 soft start, 2 policy, 3 damping); operator — bit 0 stop, bit 1 reset, bit 2 start (applied in that order) |
 //! | 7 | 1 | reserved (0) |
-//! | 8 | 2 | n, the number of motors |
+//! | 8 | 2 | n, the number of motors (0 in an operator message) |
 //! | 10 | 2 | reserved (0) |
 //! | 12 | 4 | the sender's peer id |
 //! | 16 | 4 | sequence number (each sender counts up from 0) |
 //! | 20 | 4 | reserved (0) |
 //! | 24 | 8 | timestamp, s (f64, the sender's monotonic clock) |
-//! | 32 | 8·k | payload, f64: a sensor frame's orientation (w x y z), gyro (3), base velocity (3, zeros when not given), motor positions (n), motor velocities (n) — k = 10 + 2n; a command's targets (n), kp (n), kd (n) — k = 3n |
+//! | 32 | 8·k | payload, f64: a sensor frame's orientation (w x y z), gyro (3), base velocity (3, zeros when not given), motor positions (n), motor velocities (n) — k = 10 + 2n; a command's targets (n), kp (n), kd (n) — k = 3n; an operator message's velocity command v_x, v_y, w_z — k = 3 |
 //! | 32 + 8k | 4 | CRC-32 (IEEE) of every byte before it |
 //!
 //! Encoding writes into a buffer the caller keeps and decoding reads into one: neither allocates.
 
 use crate::controller::{Fault, Mode, MotorCommand};
 use crate::driver::Readings;
+use crate::operator::OperatorMessage;
 
 pub const MAGIC: &[u8; 4] = b"TOPA";
 pub const VERSION: u8 = 1;
 pub const HEADER: usize = 32;
 pub const SENSORS: u8 = 1;
 pub const COMMAND: u8 = 2;
+pub const OPERATOR: u8 = 3;
 
 /// Why a datagram was refused (each is counted by the receiver; none is acted on).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -62,7 +64,12 @@ pub struct Header {
 
 /// A datagram's size for `n` motors.
 pub fn size(kind: u8, n: usize) -> usize {
-    HEADER + 8 * if kind == SENSORS { 10 + 2 * n } else { 3 * n } + 4
+    let values = match kind {
+        SENSORS => 10 + 2 * n,
+        COMMAND => 3 * n,
+        _ => 3,
+    };
+    HEADER + 8 * values + 4
 }
 
 fn put_header(buf: &mut [u8], h: &Header, timestamp: f64) {
@@ -115,6 +122,23 @@ pub fn encode_command<'b>(c: &MotorCommand, peer: u32, seq: u32, timestamp: f64,
     put_header(buf, &Header { kind: COMMAND, flags, n, peer, seq }, timestamp);
     let len = put_values(buf, c.target.iter().chain(&c.kp).chain(&c.kd));
     &buf[..len]
+}
+
+/// Encodes an operator message into `buf`; returns the datagram.
+pub fn encode_operator<'b>(o: &OperatorMessage, peer: u32, seq: u32, timestamp: f64, buf: &'b mut Vec<u8>) -> &'b [u8] {
+    buf.resize(size(OPERATOR, 0), 0);
+    let flags = u8::from(o.stop) | u8::from(o.reset) << 1 | u8::from(o.start) << 2;
+    put_header(buf, &Header { kind: OPERATOR, flags, n: 0, peer, seq }, timestamp);
+    let len = put_values(buf, o.command.iter());
+    &buf[..len]
+}
+
+/// Decodes a checked operator message.
+pub fn decode_operator(d: &[u8]) -> Result<(Header, OperatorMessage), WireError> {
+    let (h, _) = check(d, OPERATOR, 0)?;
+    let bit = |b: u8| h.flags >> b & 1 == 1;
+    let command = [value(d, 0), value(d, 1), value(d, 2)];
+    Ok((h, OperatorMessage { command, stop: bit(0), reset: bit(1), start: bit(2) }))
 }
 
 /// Checks a datagram of `kind` for `n` motors: magic, version, kind, size, checksum. Returns its header and

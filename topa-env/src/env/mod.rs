@@ -8,6 +8,7 @@ use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+mod drives;
 mod ground;
 mod observe;
 mod randomize;
@@ -341,30 +342,31 @@ impl RobotEnv {
     /// Physics steps with the current ctrl; Err or blow-up → false.
     fn simulate(&mut self) -> bool {
         let start = std::time::Instant::now();
-        let mut ok = true;
-        let dt = self.cfg.timestep;
-        for _ in 0..self.cfg.decimation {
-            if let Some(s) = &mut self.sim2sim {
-                s.before_physics_step(&mut self.data, &self.idx);
-            }
-            self.apply_forces();
-            let mut r = self.data.step();
-            if let (Ok(()), Some(s)) = (&r, &mut self.sim2sim) {
-                r = s.after_physics_step(&self.data, &self.idx, dt).map_err(|e| match e {
-                    EnvError::Mujoco(m) => m,
-                    other => mujoco::MujocoError::Invalid(other.to_string()),
-                });
-            }
-            if let Err(e) = r {
-                if matches!(e, mujoco::MujocoError::Capacity { .. }) {
-                    self.fatal = Some(e.into());
-                }
-                ok = false;
-                break;
-            }
-        }
+        let ok = (0..self.cfg.decimation).all(|_| self.physics_step());
         self.physics_ns += start.elapsed().as_nanos() as u64;
         ok && !self.data.is_unstable()
+    }
+
+    /// One `mj_step` with the sim2sim models and perturbations around it; false on an error.
+    fn physics_step(&mut self) -> bool {
+        if let Some(s) = &mut self.sim2sim {
+            s.before_physics_step(&mut self.data, &self.idx);
+        }
+        self.apply_forces();
+        let mut r = self.data.step();
+        if let (Ok(()), Some(s)) = (&r, &mut self.sim2sim) {
+            r = s.after_physics_step(&self.data, &self.idx, self.cfg.timestep).map_err(|e| match e {
+                EnvError::Mujoco(m) => m,
+                other => mujoco::MujocoError::Invalid(other.to_string()),
+            });
+        }
+        if let Err(e) = r {
+            if matches!(e, mujoco::MujocoError::Capacity { .. }) {
+                self.fatal = Some(e.into());
+            }
+            return false;
+        }
+        true
     }
 }
 

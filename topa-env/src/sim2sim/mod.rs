@@ -213,6 +213,8 @@ pub struct Sensed {
     pub lin_vel: [f64; 3],
     pub ang_vel: [f64; 3],
     pub gravity: [f64; 3],
+    /// The IMU's attitude output, world ← torso (w, x, y, z): what a robot's driver sends its controller.
+    pub orientation: [f64; 4],
     /// Encoder readings of the motors (the actuated joints).
     pub motor_pos: Vec<f64>,
     pub motor_vel: Vec<f64>,
@@ -429,6 +431,8 @@ impl Sim2Sim {
         let q_meas = q_true * UnitQuaternion::from_scaled_axis(Vector3::from(err));
         let g = q_meas.inverse_transform_vector(&Vector3::new(0.0, 0.0, -1.0));
         latest.gravity = [g.x, g.y, g.z];
+        let o = q_meas.quaternion();
+        latest.orientation = [o.w, o.i, o.j, o.k];
         if c.estimator.enabled {
             let a = &d.sensordata()[idx.imu_accel..idx.imu_accel + 3];
             self.imu_accel = accel.corrupt(&c.accel, [a[0], a[1], a[2]], dt, rng);
@@ -547,6 +551,8 @@ impl Sim2Sim {
                     lin_vel: [s[0], s[1], s[2]],
                     ang_vel: [s[3], s[4], s[5]],
                     gravity: [s[6], s[7], s[8]],
+                    // Not in snapshots (they predate it, and training never reads it): only the wire does.
+                    orientation: [1.0, 0.0, 0.0, 0.0],
                     motor_pos: s[9..9 + n].to_vec(),
                     motor_vel: s[9 + n..9 + 2 * n].to_vec(),
                 }

@@ -1,0 +1,86 @@
+//! `topa sim-robot` and `topa control`: the simulated robot and the controller as two processes on the wire.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use clap::Args;
+use topa_eval::settings::Sim2SimMode;
+
+/// The simulated robot: MuJoCo in real time, the drives' PD and watchdog, sensor frames out, commands in.
+#[derive(Args)]
+pub(crate) struct SimRobotArgs {
+    /// The policy whose robot and physics to simulate (its training config; the policy itself runs in `topa control`).
+    #[arg(long)]
+    pub(crate) policy: PathBuf,
+    /// ideal, realistic (the robot's sensors, state estimator, action delay and motor limits), or a TOML file.
+    #[arg(long, default_value = "realistic")]
+    pub(crate) sim2sim: Sim2SimMode,
+    /// This robot's socket.
+    #[arg(long, default_value = "127.0.0.1:7700")]
+    pub(crate) listen: SocketAddr,
+    /// The controller's socket.
+    #[arg(long, default_value = "127.0.0.1:7701")]
+    pub(crate) controller: SocketAddr,
+    /// Share of datagrams lost, each direction (0–1).
+    #[arg(long, value_parser = crate::cli::values::share, default_value_t = 0.0)]
+    pub(crate) loss: f64,
+    /// Fixed one-way latency added to each datagram, ms.
+    #[arg(long, value_parser = crate::cli::values::non_negative, default_value_t = 0.0)]
+    pub(crate) latency_ms: f64,
+    /// Extra latency drawn uniformly from [0, jitter] per datagram, ms.
+    #[arg(long, value_parser = crate::cli::values::non_negative, default_value_t = 0.0)]
+    pub(crate) jitter_ms: f64,
+    /// The drives damp when no command came for this long, ms (default: three control periods).
+    #[arg(long, value_parser = crate::cli::values::positive)]
+    pub(crate) watchdog_ms: Option<f64>,
+    /// Seed of the simulation's and the network's draws.
+    #[arg(long, default_value_t = 1)]
+    pub(crate) seed: u64,
+    /// Stop after this long, s (default: run until interrupted; ignored by --tracking, which takes its own time).
+    #[arg(long, value_parser = crate::cli::values::positive)]
+    pub(crate) seconds: Option<f64>,
+    /// Run the tracking experiment through the controller, acting as its operator: the six commands, one run each.
+    #[arg(long)]
+    pub(crate) tracking: bool,
+    /// Seconds per command of --tracking (after settling).
+    #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 10.0)]
+    pub(crate) window: f64,
+    /// The operator's socket of --tracking.
+    #[arg(long, default_value = "127.0.0.1:7703")]
+    pub(crate) operator_listen: SocketAddr,
+    /// The controller's operator socket (its --operator-listen).
+    #[arg(long, default_value = "127.0.0.1:7702")]
+    pub(crate) operator: SocketAddr,
+    /// Write the --tracking rows and the wire's counters as JSON here.
+    #[arg(long)]
+    pub(crate) out: Option<PathBuf>,
+}
+
+/// The robot-side controller on a robot on the wire (a real robot's bridge, or `topa sim-robot`).
+#[derive(Args)]
+pub(crate) struct ControlArgs {
+    /// The controller file's folder (`topa export --policy P --controller DIR`).
+    #[arg(long)]
+    pub(crate) controller: PathBuf,
+    /// This controller's socket.
+    #[arg(long, default_value = "127.0.0.1:7701")]
+    pub(crate) listen: SocketAddr,
+    /// The robot's socket.
+    #[arg(long, default_value = "127.0.0.1:7700")]
+    pub(crate) robot: SocketAddr,
+    /// The socket operator messages come to (velocity command, stop, reset, start).
+    #[arg(long, default_value = "127.0.0.1:7702")]
+    pub(crate) operator_listen: SocketAddr,
+    /// The operator's socket (the only sender accepted there).
+    #[arg(long, default_value = "127.0.0.1:7703")]
+    pub(crate) operator: SocketAddr,
+    /// Start at once: soft start on the first sensor frame, then the policy.
+    #[arg(long)]
+    pub(crate) start: bool,
+    /// The velocity command to start with, v_x,v_y,w_z (m/s, m/s, rad/s).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 3, default_value = "0,0,0")]
+    pub(crate) command: Vec<f64>,
+    /// Stop (damping) and exit after this long, s (default: run until interrupted).
+    #[arg(long, value_parser = crate::cli::values::positive)]
+    pub(crate) seconds: Option<f64>,
+}

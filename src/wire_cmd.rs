@@ -1,0 +1,124 @@
+//! `topa sim-robot` and `topa control`: each builds its side from the flags and runs it; the loops live in
+//! `topa_sim_robot` and `topa_control::remote`.
+
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use topa_control::netem::Impairment;
+use topa_control::remote::{serve, OperatorLink, UdpRobot};
+use topa_control::driver::Driver;
+use topa_control::Controller;
+use topa_env::policy_runner::PolicyRunner;
+use topa_eval::settings::EvalSettings;
+use topa_sim_robot::tracking::{Operator, Protocol};
+use topa_sim_robot::{SimRobot, SimRobotConfig};
+
+use crate::cli::wire::{ControlArgs, SimRobotArgs};
+
+pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
+    let settings = EvalSettings { seed: a.seed, ..Default::default() }.with_sim2sim(&a.sim2sim)?;
+    let runner = PolicyRunner::load(&a.policy, "robot")?;
+    let cfg = settings.env_config(&runner)?;
+    let period_s = cfg.policy_dt();
+    let batch = topa_env::vec_env::robot_batch(&cfg, 1, a.seed, 1)?;
+    let impairment = Impairment { loss: a.loss, latency_s: a.latency_ms * 1e-3, jitter_s: a.jitter_ms * 1e-3 };
+    let watchdog_s = a.watchdog_ms.map_or(3.0 * period_s, |ms| ms * 1e-3);
+    let rc = SimRobotConfig { listen: a.listen, controller: a.controller, impairment, watchdog_s, seed: a.seed };
+    let mut robot = SimRobot::new(batch, &rc)?;
+    eprintln!(
+        "simulated robot on {} ({} sim2sim, physics {:.0} Hz, frames {:.0} Hz) → controller {}; on its gantry until a soft start",
+        a.listen,
+        a.sim2sim,
+        1.0 / cfg.timestep,
+        1.0 / period_s,
+        a.controller
+    );
+    if a.tracking {
+        let mut op = Operator::bind(a.operator_listen, a.operator)?;
+        let p = Protocol { settle_s: settings.settle_s, window_s: a.window, transient_s: 2.0 };
+        let rows = topa_sim_robot::tracking::run(&mut robot, &mut op, &p)?;
+        println!("| command | MAE (ours) | v_x | v_y | w_z | fell |\n|---|---:|---:|---:|---:|---|");
+        for r in &rows {
+            let [x, y, z] = r.mae_components;
+            println!("| {} | {:.3} | {x:.3} | {y:.3} | {z:.3} | {} |", r.key, r.mae, if r.fell { "yes" } else { "no" });
+        }
+        let worst = rows.iter().map(|r| r.mae).fold(0.0, f64::max);
+        println!("worst MAE {worst:.3}; wire: {:?}", robot.counters);
+        if let Some(path) = &a.out {
+            let json = serde_json::json!({ "policy": a.policy, "sim2sim": a.sim2sim.to_string(), "loss": a.loss,
+                "latency_ms": a.latency_ms, "jitter_ms": a.jitter_ms, "rows": rows, "counters": robot.counters });
+            trainer::tensorfile::write_atomic(path, serde_json::to_string_pretty(&json)?.as_bytes())?;
+        }
+        return Ok(());
+    }
+    let t0 = Instant::now();
+    let mut last_report = 0.0;
+    loop {
+        robot.step()?;
+        let t = t0.elapsed().as_secs_f64();
+        if a.seconds.is_some_and(|s| t >= s) {
+            break;
+        }
+        if t - last_report >= 2.0 {
+            last_report = t;
+            let s = robot.env().robot_state();
+            eprintln!(
+                "t {t:5.1} s | {} | v_x {:+.2} v_y {:+.2} w_z {:+.2}{} | {:?}",
+                robot.mode().map_or("waiting".to_string(), |m| format!("{m:?}")),
+                s.lin_vel[0],
+                s.lin_vel[1],
+                s.ang_vel[2],
+                if robot.env().has_fallen() { " | fallen" } else { "" },
+                robot.counters
+            );
+        }
+    }
+    Ok(())
+}
+
+pub(crate) fn control(a: ControlArgs) -> Result<()> {
+    let mut c = Controller::load(&a.controller)?;
+    let n = c.spec().n_motors();
+    let period = c.spec().control_period_s;
+    let mut robot = UdpRobot::bind(a.listen, a.robot, n, period).with_context(|| format!("binding {}", a.listen))?;
+    let mut operator =
+        OperatorLink::bind(a.operator_listen, a.operator).with_context(|| format!("binding {}", a.operator_listen))?;
+    c.set_command([a.command[0], a.command[1], a.command[2]]);
+    if a.start {
+        c.start();
+    }
+    eprintln!(
+        "controller on {} ({} motors, {:.0} Hz) ↔ robot {}; operator messages on {} from {}",
+        a.listen,
+        n,
+        1.0 / period,
+        a.robot,
+        a.operator_listen,
+        a.operator
+    );
+    let t0 = Instant::now();
+    let mut last_report = 0.0;
+    let mut last_mode = c.mode();
+    serve(&mut c, &mut robot, Some(&mut operator), |c, _, sent| {
+        if sent.mode != last_mode {
+            eprintln!("mode {:?} → {:?}", last_mode, sent.mode);
+            last_mode = sent.mode;
+        }
+        let t = t0.elapsed().as_secs_f64();
+        if t - last_report >= 5.0 {
+            last_report = t;
+            eprintln!("t {t:5.1} s | {:?} | command {:?} | {:?}", sent.mode, c.command(), c.counters);
+        }
+        if a.seconds.is_some_and(|s| t >= s) {
+            c.stop();
+            return ControlFlow::Break(());
+        }
+        ControlFlow::Continue(())
+    });
+    // The stop's damping command goes out before the process ends.
+    let now = robot.now();
+    robot.send(c.watchdog(now));
+    eprintln!("controller stopped: {:?}; socket: accepted {}, refused {}", c.counters, robot.link().receiver.accepted, robot.link().receiver.refused);
+    Ok(())
+}

@@ -1,0 +1,128 @@
+//! A robot on the wire (a real one's bridge, or `topa sim-robot`): the [`Driver`] that takes its sensor frames off
+//! a UDP socket and sends it motor commands, and the controller's loop around it — one period per sensor frame,
+//! the watchdog when none came within a period, an operator on its own socket.
+
+use std::net::SocketAddr;
+use std::ops::ControlFlow;
+use std::time::{Duration, Instant};
+
+use crate::controller::{Controller, MotorCommand};
+use crate::driver::{run_period, Driver, Readings};
+use crate::operator::OperatorMessage;
+use crate::transport::Link;
+use crate::wire;
+
+/// The controller's peer id on the wire.
+pub const PEER_ID: u32 = 0x4354_524c; // "CTRL"
+
+/// The robot's socket pair as a driver. Frames are stamped with this side's clock on arrival: the two sides'
+/// clocks are not synchronised, and the state machine's timing (soft start, staleness) is this side's.
+pub struct UdpRobot {
+    link: Link,
+    n: usize,
+    seq: u32,
+    t0: Instant,
+    period: Duration,
+    buf: Vec<u8>,
+    /// Frames that passed the wire check but did not decode (cannot happen for a checked frame; counted anyway).
+    pub undecodable: u64,
+}
+
+impl UdpRobot {
+    /// Binds `local` and talks to the robot at `robot`; a period without a frame is `period_s`.
+    pub fn bind(local: SocketAddr, robot: SocketAddr, n_motors: usize, period_s: f64) -> std::io::Result<UdpRobot> {
+        Ok(UdpRobot {
+            link: Link::bind(local, robot)?,
+            n: n_motors,
+            seq: 0,
+            t0: Instant::now(),
+            period: Duration::from_secs_f64(period_s),
+            buf: Vec::with_capacity(wire::size(wire::COMMAND, n_motors)),
+            undecodable: 0,
+        })
+    }
+
+    /// The socket, with its counters (accepted, refused, superseded, strangers).
+    pub fn link(&self) -> &Link {
+        &self.link
+    }
+}
+
+impl Driver for UdpRobot {
+    fn now(&self) -> f64 {
+        self.t0.elapsed().as_secs_f64()
+    }
+
+    fn read(&mut self, r: &mut Readings) -> bool {
+        let n = self.n;
+        let Ok(Some(d)) = self.link.wait(self.period, |d| wire::check(d, wire::SENSORS, n).map(|h| h.0)) else {
+            return false;
+        };
+        if wire::decode_sensors(d, r).is_err() {
+            self.undecodable += 1;
+            return false;
+        }
+        r.timestamp_s = self.t0.elapsed().as_secs_f64();
+        true
+    }
+
+    fn send(&mut self, c: &MotorCommand) {
+        let t = self.t0.elapsed().as_secs_f64();
+        let d = wire::encode_command(c, PEER_ID, self.seq, t, &mut self.buf);
+        self.seq = self.seq.wrapping_add(1);
+        // A robot not listening (yet) refuses the datagram; the stream goes on.
+        let _ = self.link.send(d);
+    }
+}
+
+/// The operator's socket: messages from one peer, newest first.
+pub struct OperatorLink {
+    link: Link,
+}
+
+impl OperatorLink {
+    pub fn bind(local: SocketAddr, operator: SocketAddr) -> std::io::Result<OperatorLink> {
+        Ok(OperatorLink { link: Link::bind(local, operator)? })
+    }
+
+    /// The newest operator message since the last call, if any.
+    pub fn poll(&mut self) -> Option<OperatorMessage> {
+        let d = self.link.poll(|d| wire::check(d, wire::OPERATOR, 0).map(|h| h.0)).ok()??;
+        wire::decode_operator(d).ok().map(|(_, m)| m)
+    }
+
+    pub fn link(&self) -> &Link {
+        &self.link
+    }
+}
+
+/// Runs the controller against the robot until `each` breaks: one period per sensor frame (or per period of
+/// silence), then the operator's newest message, then `each` with what the controller saw and sent (to record,
+/// display, or read a keyboard).
+pub fn serve(
+    c: &mut Controller,
+    robot: &mut UdpRobot,
+    mut operator: Option<&mut OperatorLink>,
+    mut each: impl FnMut(&mut Controller, &Readings, &MotorCommand) -> ControlFlow<()>,
+) {
+    let mut r = Readings::new(c.spec().n_motors());
+    let mut sent = MotorCommand {
+        mode: c.mode(),
+        target: vec![0.0; r.motor_pos.len()],
+        kp: vec![0.0; r.motor_pos.len()],
+        kd: vec![0.0; r.motor_pos.len()],
+    };
+    loop {
+        let out = run_period(c, robot, &mut r);
+        sent.mode = out.mode;
+        sent.target.copy_from_slice(&out.target);
+        sent.kp.copy_from_slice(&out.kp);
+        sent.kd.copy_from_slice(&out.kd);
+        if let Some(m) = operator.as_mut().and_then(|o| o.poll()) {
+            m.apply(c);
+        }
+        if each(c, &r, &sent).is_break() {
+            return;
+        }
+    }
+}

@@ -1,0 +1,60 @@
+//! The robot under an outside controller (`topa sim-robot`): one physics step at a time with the PD targets and
+//! gains the controller sent, as a real robot's motor drivers run their PD at their own rate, and the readings
+//! its driver would send back.
+
+use super::RobotEnv;
+use crate::sim2sim::Sensed;
+use crate::state;
+
+impl RobotEnv {
+    /// One physics step with the drives' PD: per motor a target (rad), a stiffness kp (N·m/rad) and a damping kd
+    /// (N·m·s/rad). The realistic models (action delay, torque–speed limits, the motors' identified torque
+    /// constant) act on these as on the policy's targets. False when the simulation failed or diverged.
+    pub fn step_drives(&mut self, target: &[f64], kp: &[f64], kd: &[f64]) -> bool {
+        let n = self.idx.n_motors;
+        assert!(target.len() == n && kp.len() == n && kd.len() == n, "drive commands are sized to the {n} motors");
+        let constants = self.sim2sim.as_ref().map(|s| &s.config().actuators).filter(|a| a.enabled);
+        let m = self.data.model_mut();
+        for i in 0..n {
+            let a = self.idx.actuators[i];
+            // A motor weaker or stronger than its datasheet turns every gain by the same factor.
+            let k = constants.and_then(|c| c.torque_constant.get(i).copied()).unwrap_or(1.0);
+            m.actuator_gainprm_mut()[a][0] = kp[i] * k;
+            m.actuator_biasprm_mut()[a][1] = -kp[i] * k;
+            m.actuator_biasprm_mut()[a][2] = -kd[i] * k;
+        }
+        match &mut self.sim2sim {
+            Some(s) => s.set_target(target),
+            None => {
+                for i in 0..n {
+                    self.data.ctrl_mut()[self.idx.actuators[i]] = target[i];
+                }
+            }
+        }
+        let ok = self.physics_step() && !self.data.is_unstable();
+        state::read_into(&self.data, &self.idx, &mut self.robot_state);
+        ok
+    }
+
+    /// What the robot's driver reads now: with realistic sim2sim its sensors (noise, quantisation, the state
+    /// estimator's velocity, the configured observation delay), else the simulator's state.
+    pub fn readings(&mut self) -> Sensed {
+        if let Some(s) = &mut self.sim2sim {
+            return s.sensed();
+        }
+        let r = &self.robot_state;
+        Sensed {
+            lin_vel: r.lin_vel,
+            ang_vel: r.ang_vel,
+            gravity: r.gravity,
+            orientation: r.base_quat,
+            motor_pos: r.motor_pos.clone(),
+            motor_vel: r.motor_vel.clone(),
+        }
+    }
+
+    /// Simulated time, s.
+    pub fn time(&self) -> f64 {
+        self.data.time()
+    }
+}
