@@ -5,11 +5,10 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+use topa_control::driver::Driver;
 use topa_control::netem::Impairment;
 use topa_control::remote::{serve, OperatorLink, UdpRobot};
-use topa_control::driver::Driver;
 use topa_control::Controller;
-use topa_env::policy_runner::PolicyRunner;
 use topa_eval::settings::EvalSettings;
 use topa_sim_robot::tracking::{Operator, Protocol};
 use topa_sim_robot::{SimRobot, SimRobotConfig};
@@ -18,19 +17,16 @@ use crate::cli::wire::{ControlArgs, SimRobotArgs};
 
 pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
     let settings = EvalSettings { seed: a.seed, ..Default::default() }.with_sim2sim(&a.sim2sim)?;
-    let runner = PolicyRunner::load(&a.policy, "robot")?;
-    let cfg = settings.env_config(&runner)?;
-    let period_s = cfg.policy_dt();
-    let batch = topa_env::vec_env::robot_batch(&cfg, 1, a.seed, 1)?;
     let impairment = Impairment { loss: a.loss, latency_s: a.latency_ms * 1e-3, jitter_s: a.jitter_ms * 1e-3 };
-    let watchdog_s = a.watchdog_ms.map_or(3.0 * period_s, |ms| ms * 1e-3);
+    let watchdog_s = a.watchdog_ms.map(|ms| ms * 1e-3);
     let rc = SimRobotConfig { listen: a.listen, controller: a.controller, impairment, watchdog_s, seed: a.seed };
-    let mut robot = SimRobot::new(batch, &rc)?;
+    let mut robot = SimRobot::for_policy(&a.policy, &settings, &rc)?;
+    let (physics_dt, period_s) = (robot.env().config().timestep, robot.control_period_s());
     eprintln!(
         "simulated robot on {} ({} sim2sim, physics {:.0} Hz, frames {:.0} Hz) → controller {}; on its gantry until a soft start",
         a.listen,
         a.sim2sim,
-        1.0 / cfg.timestep,
+        1.0 / physics_dt,
         1.0 / period_s,
         a.controller
     );
@@ -119,6 +115,11 @@ pub(crate) fn control(a: ControlArgs) -> Result<()> {
     // The stop's damping command goes out before the process ends.
     let now = robot.now();
     robot.send(c.watchdog(now));
-    eprintln!("controller stopped: {:?}; socket: accepted {}, refused {}", c.counters, robot.link().receiver.accepted, robot.link().receiver.refused);
+    eprintln!(
+        "controller stopped: {:?}; socket: accepted {}, refused {}",
+        c.counters,
+        robot.link().receiver.accepted,
+        robot.link().receiver.refused
+    );
     Ok(())
 }

@@ -16,9 +16,9 @@ pub(crate) mod wire;
 pub(crate) use eval::{Common, EvalCmd, PhysicsArgs, QualityArg, TerrainArgs, VideoArgs};
 pub(crate) use groups::{Groups, Sim2SimArg};
 pub(crate) use robot::RobotCmd;
-pub(crate) use wire::{ControlArgs, SimRobotArgs};
 pub(crate) use sysid::SysidCmd;
 pub(crate) use train::TrainArgs;
+pub(crate) use wire::{ControlArgs, SimRobotArgs};
 
 #[derive(Parser)]
 #[command(

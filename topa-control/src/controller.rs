@@ -173,10 +173,16 @@ impl Controller {
         }
     }
 
+    /// The silence after the last frame that makes the stream stale: `stale_periods` frames missed in a row, a
+    /// frame counting as missed half a period after it was due (so a late frame on a jittery link is not one).
+    pub fn stale_after_s(&self) -> f64 {
+        (self.spec.safety.stale_periods + 0.5) * self.spec.control_period_s
+    }
+
     /// Called by the driver's timer when a period passed without a frame: damping once the stream is stale.
     pub fn watchdog(&mut self, now_s: f64) -> &MotorCommand {
         if let Some(t) = self.last_frame_s {
-            if now_s - t > self.spec.safety.stale_periods * self.spec.control_period_s {
+            if now_s - t > self.stale_after_s() {
                 self.fault(Fault::Stale);
             }
         }
@@ -210,7 +216,7 @@ impl Controller {
             return Err(FrameRefused::NotNewer);
         }
         if let Some(t) = self.last_frame_s {
-            if f.timestamp_s - t > self.spec.safety.stale_periods * self.spec.control_period_s {
+            if f.timestamp_s - t > self.stale_after_s() {
                 self.fault(Fault::Stale);
             }
         }

@@ -77,8 +77,9 @@ pub trait Driver {
 /// One control period: read, tick (or, without readings or with refused ones, the watchdog), send. Returns what
 /// was sent.
 pub fn run_period<'a>(c: &'a mut Controller, d: &mut impl Driver, r: &mut Readings) -> &'a MotorCommand {
-    let now = d.now();
     let got = d.read(r);
+    // The time after the read: a driver's read may wait for the frame up to a period.
+    let now = d.now();
     let ticked = got && c.tick(&r.frame()).is_ok();
     let out = if ticked { c.command_sent() } else { c.watchdog(now) };
     d.send(out);

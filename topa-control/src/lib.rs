@@ -28,8 +28,8 @@
 pub mod controller;
 pub mod driver;
 pub mod error;
-pub mod network;
 pub mod netem;
+pub mod network;
 pub mod observation;
 pub mod operator;
 pub mod remote;

@@ -78,7 +78,8 @@ impl Netem {
     /// Hands every datagram due by `now_s` to `deliver`, earliest first.
     pub fn deliver(&mut self, now_s: f64, mut deliver: impl FnMut(&[u8])) {
         loop {
-            let (i, t) = self.due.iter().copied().enumerate().fold((0, f64::INFINITY), |b, x| if x.1 < b.1 { x } else { b });
+            let (i, t) =
+                self.due.iter().copied().enumerate().fold((0, f64::INFINITY), |b, x| if x.1 < b.1 { x } else { b });
             if t > now_s {
                 return;
             }

@@ -24,6 +24,7 @@ pub struct UdpRobot {
     t0: Instant,
     period: Duration,
     buf: Vec<u8>,
+    last_arrival: Option<f64>,
     /// Frames that passed the wire check but did not decode (cannot happen for a checked frame; counted anyway).
     pub undecodable: u64,
 }
@@ -38,6 +39,7 @@ impl UdpRobot {
             t0: Instant::now(),
             period: Duration::from_secs_f64(period_s),
             buf: Vec::with_capacity(wire::size(wire::COMMAND, n_motors)),
+            last_arrival: None,
             undecodable: 0,
         })
     }
@@ -53,9 +55,19 @@ impl Driver for UdpRobot {
         self.t0.elapsed().as_secs_f64()
     }
 
+    /// Waits for the next frame until it is half a period overdue (then the next one, if the last was missed):
+    /// the controller's staleness is judged at those instants, not a period late.
     fn read(&mut self, r: &mut Readings) -> bool {
-        let n = self.n;
-        let Ok(Some(d)) = self.link.wait(self.period, |d| wire::check(d, wire::SENSORS, n).map(|h| h.0)) else {
+        let (n, p) = (self.n, self.period.as_secs_f64());
+        let now = self.t0.elapsed().as_secs_f64();
+        let timeout = match self.last_arrival {
+            Some(last) => {
+                let due = ((now - last) / p - 0.5).floor().max(0.0) + 1.0;
+                Duration::from_secs_f64((last + (due + 0.5) * p - now).max(1e-4))
+            }
+            None => self.period,
+        };
+        let Ok(Some(d)) = self.link.wait(timeout, |d| wire::check(d, wire::SENSORS, n).map(|h| h.0)) else {
             return false;
         };
         if wire::decode_sensors(d, r).is_err() {
@@ -63,6 +75,7 @@ impl Driver for UdpRobot {
             return false;
         }
         r.timestamp_s = self.t0.elapsed().as_secs_f64();
+        self.last_arrival = Some(r.timestamp_s);
         true
     }
 

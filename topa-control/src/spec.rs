@@ -74,7 +74,7 @@ pub struct ObservationSpec {
 pub struct SafetySpec {
     /// Damping when the torso tilts further than this from upright, rad.
     pub max_tilt_rad: f64,
-    /// Damping when no valid frame came for this many control periods.
+    /// Damping when this many frames in a row were missed (a frame is missed half a period after it was due).
     pub stale_periods: f64,
     /// The soft start's ramp from the measured pose to the stand pose, s.
     pub soft_start_s: f64,

@@ -6,15 +6,18 @@
 //! when their master falls silent.
 
 use std::net::SocketAddr;
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use topa_control::driver::Readings;
 use topa_control::netem::{Impairment, Netem};
 use topa_control::transport::Link;
 use topa_control::{wire, Mode, MotorCommand};
+use topa_env::policy_runner::PolicyRunner;
 use topa_env::task::Task;
 use topa_env::vec_env::BatchEnv;
 use topa_env::RobotEnv;
+use topa_eval::settings::EvalSettings;
 
 use crate::error::{Error, Result};
 
@@ -30,8 +33,9 @@ pub struct SimRobotConfig {
     pub controller: SocketAddr,
     /// Loss, latency and jitter on both directions.
     pub impairment: Impairment,
-    /// The drives damp when no valid command came for this long, s.
-    pub watchdog_s: f64,
+    /// The drives damp when no valid command came for this long, s (None: three control periods missed, a
+    /// command counting as missed half a period after it was due — as the controller judges its frames).
+    pub watchdog_s: Option<f64>,
     /// Seed of the network's draws.
     pub seed: u64,
 }
@@ -92,7 +96,8 @@ impl SimRobot {
     /// A robot from a one-env batch (its config says the physics and the realistic models), on its gantry.
     pub fn new(batch: BatchEnv<RobotEnv>, cfg: &SimRobotConfig) -> Result<SimRobot> {
         cfg.impairment.validate()?;
-        let link = Link::bind(cfg.listen, cfg.controller).map_err(|source| Error::Socket { addr: cfg.listen, source })?;
+        let link =
+            Link::bind(cfg.listen, cfg.controller).map_err(|source| Error::Socket { addr: cfg.listen, source })?;
         let env = &batch.tasks()[0];
         let n = env.indices().n_motors;
         let m = env.data().model();
@@ -108,7 +113,7 @@ impl SimRobot {
             drives: Drives { target: vec![0.0; n], kp: vec![0.0; n], kd: vec![0.0; n], mode: None, applied_seq: None },
             damping_kd,
             held: true,
-            watchdog_s: cfg.watchdog_s,
+            watchdog_s: cfg.watchdog_s.unwrap_or(3.5 * dt * decimation as f64),
             last_command_wall: None,
             silent: false,
             readings: Readings::new(n),
@@ -123,6 +128,13 @@ impl SimRobot {
         };
         robot.reset()?;
         Ok(robot)
+    }
+
+    /// The robot the policy `policy` was trained for, with its physics, in `settings`' sim2sim mode.
+    pub fn for_policy(policy: &Path, settings: &EvalSettings, cfg: &SimRobotConfig) -> Result<SimRobot> {
+        let runner = PolicyRunner::load(policy, "robot")?;
+        let env = settings.env_config(&runner)?;
+        SimRobot::new(topa_env::vec_env::robot_batch(&env, 1, settings.seed, 1)?, cfg)
     }
 
     pub fn local_addr(&self) -> std::io::Result<SocketAddr> {
@@ -183,6 +195,7 @@ impl SimRobot {
         if period {
             self.send_frame(now);
         }
+        self.deliver_frames(now);
         self.steps += 1;
         self.receive(now);
         self.watchdog(now);
@@ -209,6 +222,10 @@ impl SimRobot {
         self.seq = self.seq.wrapping_add(1);
         self.up.push(now, d);
         self.counters.frames_sent += 1;
+    }
+
+    /// Frames whose time through the network has come go out.
+    fn deliver_frames(&mut self, now: f64) {
         let Self { up, link, .. } = self;
         up.deliver(now, |d| {
             // A controller not yet listening refuses the datagram: the frame is simply lost, as on a real bus.
