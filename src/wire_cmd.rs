@@ -19,15 +19,22 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
     let settings = EvalSettings { seed: a.seed, ..Default::default() }.with_sim2sim(&a.sim2sim)?;
     let impairment = Impairment { loss: a.loss, latency_s: a.latency_ms * 1e-3, jitter_s: a.jitter_ms * 1e-3 };
     let watchdog_s = a.watchdog_ms.map(|ms| ms * 1e-3);
-    let rc = SimRobotConfig { listen: a.listen, controller: a.controller, impairment, watchdog_s, seed: a.seed };
+    let rc = SimRobotConfig {
+        listen: a.listen,
+        controller: a.controller,
+        impairment,
+        watchdog_s,
+        seed: a.seed,
+        frame_hz: a.frame_hz,
+    };
     let mut robot = SimRobot::for_policy(&a.policy, &settings, &rc)?;
     let (physics_dt, period_s) = (robot.env().config().timestep, robot.control_period_s());
     eprintln!(
-        "simulated robot on {} ({} sim2sim, physics {:.0} Hz, frames {:.0} Hz) → controller {}; on its gantry until a soft start",
+        "simulated robot on {} ({} sim2sim, physics {:.0} Hz, control period {:.0} ms) → controller {}; on its gantry until a soft start",
         a.listen,
         a.sim2sim,
         1.0 / physics_dt,
-        1.0 / period_s,
+        period_s * 1e3,
         a.controller
     );
     if a.tracking {
@@ -40,7 +47,8 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
             println!("| {} | {:.3} | {x:.3} | {y:.3} | {z:.3} | {} |", r.key, r.mae, if r.fell { "yes" } else { "no" });
         }
         let worst = rows.iter().map(|r| r.mae).fold(0.0, f64::max);
-        println!("worst MAE {worst:.3}; wire: {:?}", robot.counters);
+        let falls = rows.iter().filter(|r| r.fell).count();
+        println!("falls {falls}/6; worst MAE of the runs that stood {worst:.3}; wire: {:?}", robot.counters);
         if let Some(path) = &a.out {
             let json = serde_json::json!({ "policy": a.policy, "sim2sim": a.sim2sim.to_string(), "loss": a.loss,
                 "latency_ms": a.latency_ms, "jitter_ms": a.jitter_ms, "rows": rows, "counters": robot.counters });

@@ -180,14 +180,14 @@ fn a_tick_allocates_nothing_and_every_drill_ends_in_damping() {
     bad[3] = f64::NAN;
     let out = c.tick(&frame(t, &bad, &vel)).unwrap().clone();
     damping(&c, &out, Fault::NonFinite);
-    // The sensor stream goes silent: damping once three frames were missed (the third half a period overdue).
+    // The sensor stream goes silent: damping after two periods of silence (the next tick: within three).
     restart(&mut c, &mut t);
     let silent_from = t;
-    let mut k = 0;
-    while c.watchdog(silent_from + k as f64 * dt * 0.1).mode == Mode::Policy {
+    let mut k = 1;
+    while c.watchdog(silent_from + k as f64 * dt).mode == Mode::Policy {
         k += 1;
     }
-    assert!((35..=36).contains(&k), "damping after {} periods", k as f64 * 0.1);
+    assert_eq!(k, 2, "damping in the second empty period");
     assert_eq!(c.mode(), Mode::Damping(Fault::Stale));
     // A motor far outside its range; the operator's stop.
     restart(&mut c, &mut t);

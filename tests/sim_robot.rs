@@ -59,7 +59,14 @@ fn spawn_control(dir: &Path, p: &Ports, start: bool) -> Child {
 
 fn robot(p: &Ports, impairment: Impairment) -> SimRobot {
     let settings = EvalSettings::default().with_sim2sim(&Sim2SimMode::Realistic).unwrap();
-    let cfg = SimRobotConfig { listen: p.robot, controller: p.controller, impairment, watchdog_s: None, seed: 3 };
+    let cfg = SimRobotConfig {
+        listen: p.robot,
+        controller: p.controller,
+        impairment,
+        watchdog_s: None,
+        seed: 3,
+        frame_hz: None,
+    };
     SimRobot::for_policy(Path::new(POLICY), &settings, &cfg).unwrap()
 }
 
@@ -94,7 +101,7 @@ fn through_two_processes_the_robot_walks_the_six_commands_and_survives_a_lossy_n
     assert!(!fell, "a run fell on a clean network: {c:?}");
     assert!(worst < 0.15, "worst MAE {worst} through the wire (in process the policy tracks within 0.11)");
     assert_eq!((c.lost_to_controller, c.lost_from_controller, c.commands_refused), (0, 0, 0));
-    assert!(c.frames_sent > 6 * 5 * 50, "a frame every control period: {c:?}");
+    assert!(c.frames_sent > 6 * 5 * 1000, "a frame every physics step: {c:?}");
 
     let lossy = Impairment { loss: 0.05, latency_s: 0.0, jitter_s: 0.002 };
     let (worst, fell, c) = tracking("lossy", lossy);
@@ -105,7 +112,7 @@ fn through_two_processes_the_robot_walks_the_six_commands_and_survives_a_lossy_n
     assert!(c.lost_from_controller > 0, "commands are lost too: {c:?}");
 }
 
-/// The controller killed: the simulated robot's drives damp on their own watchdog (three control periods) and
+/// The controller killed: the simulated robot's drives damp on their own watchdog (five control periods) and
 /// count it.
 #[test]
 fn a_killed_controller_leaves_the_drives_damping_within_the_watchdog() {
@@ -132,7 +139,7 @@ fn a_killed_controller_leaves_the_drives_damping_within_the_watchdog() {
     }
     let after = r.env().time() - killed;
     let period = r.control_period_s();
-    assert!(after <= 3.5 * period + 0.005, "damping {after} s after the last command (watchdog 3 periods)");
+    assert!(after <= 5.0 * period + 0.005, "damping {after} s after the last command (watchdog 5 periods)");
     assert_eq!(r.mode(), Some(Mode::Damping(Fault::Stale)));
     assert_eq!(r.counters.watchdog_trips, 1);
     std::fs::remove_dir_all(dir).ok();
@@ -141,6 +148,7 @@ fn a_killed_controller_leaves_the_drives_damping_within_the_watchdog() {
 /// The robot gone silent: the controller over UDP damps within three control periods of its last frame.
 #[test]
 fn a_silent_robot_is_damped_by_the_controller_within_three_periods() {
+    let _turn = REAL_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = export("silent");
     let mut c = Controller::load(&dir).unwrap();
     let n = c.spec().n_motors();
@@ -175,9 +183,8 @@ fn a_silent_robot_is_damped_by_the_controller_within_three_periods() {
     let (at, fault) = damped_at.unwrap();
     assert_eq!(fault, Fault::Stale);
     let late = at.duration_since(last_frame).as_secs_f64();
-    // Three frames missed: the third counts as missed half a period after it was due.
-    assert!(late <= 3.5 * period + 0.005, "damping {late} s after the last frame (3.5 periods = {} s)", 3.5 * period);
-    assert!(late >= 3.5 * period - 0.002, "damping {late} s after the last frame, before three were missed");
-    assert!(c.counters.ticks >= 45, "the frames before drove the controller: {:?}", c.counters);
+    assert!(late <= 3.0 * period + 0.005, "damping {late} s after the last frame (3 periods = {} s)", 3.0 * period);
+    assert!(late >= 2.0 * period, "damping {late} s after the last frame: before two periods of silence");
+    assert!(c.counters.ticks >= 40, "the frames before drove the controller: {:?}", c.counters);
     std::fs::remove_dir_all(dir).ok();
 }

@@ -30,9 +30,12 @@ pub(crate) struct SimRobotArgs {
     /// Extra latency drawn uniformly from [0, jitter] per datagram, ms.
     #[arg(long, value_parser = crate::cli::values::non_negative, default_value_t = 0.0)]
     pub(crate) jitter_ms: f64,
-    /// The drives damp when no command came for this long, ms (default: three control periods missed, 3.5 periods).
+    /// The drives damp when no command came for this long, ms (default: five control periods).
     #[arg(long, value_parser = crate::cli::values::positive)]
     pub(crate) watchdog_ms: Option<f64>,
+    /// Sensor frames per second (default: one per physics step, as drives report at their bus rate).
+    #[arg(long, value_parser = crate::cli::values::positive)]
+    pub(crate) frame_hz: Option<f64>,
     /// Seed of the simulation's and the network's draws.
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,

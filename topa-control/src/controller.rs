@@ -88,6 +88,8 @@ pub struct Controller {
     soft_t0: Option<f64>,
     restart: bool,
     last_frame_s: Option<f64>,
+    /// Watchdog periods since the last frame.
+    missed: u32,
     pub counters: Counters,
 }
 
@@ -114,6 +116,7 @@ impl Controller {
             soft_t0: None,
             restart: true,
             last_frame_s: None,
+            missed: 0,
             counters: Counters::default(),
             spec,
         }
@@ -173,16 +176,18 @@ impl Controller {
         }
     }
 
-    /// The silence after the last frame that makes the stream stale: `stale_periods` frames missed in a row, a
-    /// frame counting as missed half a period after it was due (so a late frame on a jittery link is not one).
+    /// The gap between frames that makes the stream stale whatever the driver's calls: one period more than
+    /// `stale_periods` (the watchdog's count of empty periods is what normally trips first).
     pub fn stale_after_s(&self) -> f64 {
-        (self.spec.safety.stale_periods + 0.5) * self.spec.control_period_s
+        (self.spec.safety.stale_periods + 1.0) * self.spec.control_period_s
     }
 
-    /// Called by the driver's timer when a period passed without a frame: damping once the stream is stale.
+    /// Called by the driver once per control period without a frame: damping once `stale_periods` periods in a
+    /// row had none (or, for a driver that calls less often, once the last frame is older than that).
     pub fn watchdog(&mut self, now_s: f64) -> &MotorCommand {
         if let Some(t) = self.last_frame_s {
-            if now_s - t > self.stale_after_s() {
+            self.missed += 1;
+            if self.missed as f64 >= self.spec.safety.stale_periods || now_s - t > self.stale_after_s() {
                 self.fault(Fault::Stale);
             }
         }
@@ -221,6 +226,7 @@ impl Controller {
             }
         }
         self.last_frame_s = Some(f.timestamp_s);
+        self.missed = 0;
         self.counters.ticks += 1;
         let finite = f.orientation.iter().chain(&f.gyro).chain(f.motor_pos).chain(f.motor_vel).all(|v| v.is_finite())
             && f.base_velocity.is_none_or(|v| v.iter().all(|x| x.is_finite()));

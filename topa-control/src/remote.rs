@@ -1,6 +1,6 @@
 //! A robot on the wire (a real one's bridge, or `topa sim-robot`): the [`Driver`] that takes its sensor frames off
-//! a UDP socket and sends it motor commands, and the controller's loop around it — one period per sensor frame,
-//! the watchdog when none came within a period, an operator on its own socket.
+//! a UDP socket and sends it motor commands, and the controller's loop around it — a tick every control period on
+//! its own clock with the newest frame (the watchdog when none came), an operator on its own socket.
 
 use std::net::SocketAddr;
 use std::ops::ControlFlow;
@@ -24,13 +24,13 @@ pub struct UdpRobot {
     t0: Instant,
     period: Duration,
     buf: Vec<u8>,
-    last_arrival: Option<f64>,
+    next_tick: Option<Duration>,
     /// Frames that passed the wire check but did not decode (cannot happen for a checked frame; counted anyway).
     pub undecodable: u64,
 }
 
 impl UdpRobot {
-    /// Binds `local` and talks to the robot at `robot`; a period without a frame is `period_s`.
+    /// Binds `local` and talks to the robot at `robot`; the controller ticks every `period_s`.
     pub fn bind(local: SocketAddr, robot: SocketAddr, n_motors: usize, period_s: f64) -> std::io::Result<UdpRobot> {
         Ok(UdpRobot {
             link: Link::bind(local, robot)?,
@@ -39,7 +39,7 @@ impl UdpRobot {
             t0: Instant::now(),
             period: Duration::from_secs_f64(period_s),
             buf: Vec::with_capacity(wire::size(wire::COMMAND, n_motors)),
-            last_arrival: None,
+            next_tick: None,
             undecodable: 0,
         })
     }
@@ -55,19 +55,19 @@ impl Driver for UdpRobot {
         self.t0.elapsed().as_secs_f64()
     }
 
-    /// Waits for the next frame until it is half a period overdue (then the next one, if the last was missed):
-    /// the controller's staleness is judged at those instants, not a period late.
+    /// Sleeps to the next tick of the control clock, then takes the newest frame that came since the last tick
+    /// (false when none did). The controller ticks at its own rate, whatever rate the robot sends at.
     fn read(&mut self, r: &mut Readings) -> bool {
-        let (n, p) = (self.n, self.period.as_secs_f64());
-        let now = self.t0.elapsed().as_secs_f64();
-        let timeout = match self.last_arrival {
-            Some(last) => {
-                let due = ((now - last) / p - 0.5).floor().max(0.0) + 1.0;
-                Duration::from_secs_f64((last + (due + 0.5) * p - now).max(1e-4))
-            }
-            None => self.period,
-        };
-        let Ok(Some(d)) = self.link.wait(timeout, |d| wire::check(d, wire::SENSORS, n).map(|h| h.0)) else {
+        let n = self.n;
+        let now = self.t0.elapsed();
+        let next = self.next_tick.unwrap_or(now);
+        // Fallen behind by more than a period (a stalled process): the clock starts again from now.
+        let next = if now > next + self.period { now } else { next };
+        if next > now {
+            std::thread::sleep(next - now);
+        }
+        self.next_tick = Some(next + self.period);
+        let Ok(Some(d)) = self.link.poll(|d| wire::check(d, wire::SENSORS, n).map(|h| h.0)) else {
             return false;
         };
         if wire::decode_sensors(d, r).is_err() {
@@ -75,7 +75,6 @@ impl Driver for UdpRobot {
             return false;
         }
         r.timestamp_s = self.t0.elapsed().as_secs_f64();
-        self.last_arrival = Some(r.timestamp_s);
         true
     }
 
@@ -109,8 +108,7 @@ impl OperatorLink {
     }
 }
 
-/// Runs the controller against the robot until `each` breaks: one period per sensor frame (or per period of
-/// silence), then the operator's newest message, then `each` with what the controller saw and sent (to record,
+/// Runs the controller against the robot until `each` breaks: one tick per control period, then the operator's newest message, then `each` with what the controller saw and sent (to record,
 /// display, or read a keyboard).
 pub fn serve(
     c: &mut Controller,

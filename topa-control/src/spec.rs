@@ -74,7 +74,9 @@ pub struct ObservationSpec {
 pub struct SafetySpec {
     /// Damping when the torso tilts further than this from upright, rad.
     pub max_tilt_rad: f64,
-    /// Damping when this many frames in a row were missed (a frame is missed half a period after it was due).
+    /// Damping when no valid frame came for this many control periods. The controller notices at its next tick,
+    /// so 2 means damping within 3 periods of the last frame. A robot should send frames faster than the control
+    /// rate (drives report at their bus rate), so that a lost frame or two never looks like a silent robot.
     pub stale_periods: f64,
     /// The soft start's ramp from the measured pose to the stand pose, s.
     pub soft_start_s: f64,
@@ -90,7 +92,7 @@ impl Default for SafetySpec {
     fn default() -> Self {
         SafetySpec {
             max_tilt_rad: 0.8,
-            stale_periods: 3.0,
+            stale_periods: 2.0,
             soft_start_s: 2.0,
             range_margin_rad: 0.1,
             command_rate: [1.0, 1.0, 2.0],

@@ -4,7 +4,6 @@
 
 use std::io::ErrorKind;
 use std::net::{SocketAddr, UdpSocket};
-use std::time::{Duration, Instant};
 
 use crate::wire::{self, Receiver, WireError};
 
@@ -57,26 +56,6 @@ impl Link {
     /// or None when nothing valid came. Every refusal is counted by the receiver.
     pub fn poll(&mut self, check: impl Fn(&[u8]) -> Result<wire::Header, WireError>) -> std::io::Result<Option<&[u8]>> {
         Ok(self.drain(&check)?.then_some(self.newest.as_slice()))
-    }
-
-    /// Waits up to `timeout` for a valid datagram (polling every 100 µs: the socket stays non-blocking, so a
-    /// flood never holds the caller); as `poll`.
-    pub fn wait(
-        &mut self,
-        timeout: Duration,
-        check: impl Fn(&[u8]) -> Result<wire::Header, WireError>,
-    ) -> std::io::Result<Option<&[u8]>> {
-        let deadline = Instant::now() + timeout;
-        loop {
-            if self.drain(&check)? {
-                return Ok(Some(self.newest.as_slice()));
-            }
-            let now = Instant::now();
-            if now >= deadline {
-                return Ok(None);
-            }
-            std::thread::sleep((deadline - now).min(Duration::from_micros(100)));
-        }
     }
 
     fn drain(&mut self, check: &impl Fn(&[u8]) -> Result<wire::Header, WireError>) -> std::io::Result<bool> {

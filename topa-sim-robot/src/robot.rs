@@ -1,6 +1,6 @@
 //! One simulated robot on the wire. Every physics step, in real time: the newest motor command is taken off the
-//! socket (through the impaired network, if one is set), the drives' PD acts with its targets and gains, and every
-//! control period the robot's readings go out as a sensor frame. Before a controller takes it, the robot hangs on
+//! socket (through the impaired network, if one is set), the drives' PD acts with its targets and gains, and the
+//! robot's readings go out as a sensor frame (or at `frame_hz`). Before a controller takes it, the robot hangs on
 //! its gantry (the simulation holds still while frames keep flowing); the first soft-start command lowers it.
 //! Without a fresh command for `watchdog_s` the drives damp on their own and the event is logged, as real drives do
 //! when their master falls silent.
@@ -33,11 +33,13 @@ pub struct SimRobotConfig {
     pub controller: SocketAddr,
     /// Loss, latency and jitter on both directions.
     pub impairment: Impairment,
-    /// The drives damp when no valid command came for this long, s (None: three control periods missed, a
-    /// command counting as missed half a period after it was due — as the controller judges its frames).
+    /// The drives damp when no valid command came for this long, s (None: five control periods — a lossy link
+    /// loses two or three commands in a row now and then, a dead controller sends none).
     pub watchdog_s: Option<f64>,
     /// Seed of the network's draws.
     pub seed: u64,
+    /// Sensor frames per second (None: one per physics step, as drives report at their bus rate).
+    pub frame_hz: Option<f64>,
 }
 
 /// What the robot counted: the wire, the watchdog, and how well it kept real time.
@@ -89,6 +91,7 @@ pub struct SimRobot {
     steps: u64,
     dt: f64,
     decimation: u64,
+    frame_every: u64,
     pub counters: Counters,
 }
 
@@ -113,7 +116,7 @@ impl SimRobot {
             drives: Drives { target: vec![0.0; n], kp: vec![0.0; n], kd: vec![0.0; n], mode: None, applied_seq: None },
             damping_kd,
             held: true,
-            watchdog_s: cfg.watchdog_s.unwrap_or(3.5 * dt * decimation as f64),
+            watchdog_s: cfg.watchdog_s.unwrap_or(5.0 * dt * decimation as f64),
             last_command_wall: None,
             silent: false,
             readings: Readings::new(n),
@@ -124,6 +127,7 @@ impl SimRobot {
             steps: 0,
             dt,
             decimation,
+            frame_every: cfg.frame_hz.map_or(1, |hz| ((1.0 / (hz * dt)).round() as u64).max(1)),
             counters: Counters::default(),
         };
         robot.reset()?;
@@ -178,8 +182,8 @@ impl SimRobot {
         self.t0.elapsed().as_secs_f64()
     }
 
-    /// One physics step in real time (or, on the gantry, one step of waiting). Returns whether a sensor frame went
-    /// out at its start (a control period began).
+    /// One physics step in real time (or, on the gantry, one step of waiting). Returns whether a control period
+    /// began with it (on the simulation's clock: the experiments measure once a period).
     pub fn step(&mut self) -> Result<bool> {
         let due = self.steps as f64 * self.dt;
         let now = self.wall();
@@ -192,7 +196,7 @@ impl SimRobot {
         }
         let now = self.wall().max(due);
         let period = self.steps % self.decimation == 0;
-        if period {
+        if self.steps % self.frame_every == 0 {
             self.send_frame(now);
         }
         self.deliver_frames(now);
@@ -210,7 +214,7 @@ impl SimRobot {
     }
 
     fn send_frame(&mut self, now: f64) {
-        let s = self.batch.tasks_mut()[0].readings();
+        let s = self.batch.tasks()[0].readings();
         let r = &mut self.readings;
         r.timestamp_s = self.batch.tasks()[0].time();
         r.orientation = s.orientation;

@@ -36,11 +36,11 @@ impl RobotEnv {
         ok
     }
 
-    /// What the robot's driver reads now: with realistic sim2sim its sensors (noise, quantisation, the state
-    /// estimator's velocity, the configured observation delay), else the simulator's state.
-    pub fn readings(&mut self) -> Sensed {
-        if let Some(s) = &mut self.sim2sim {
-            return s.sensed();
+    /// What the robot's driver reads now: with realistic sim2sim its newest sensor readings (noise, quantisation,
+    /// the state estimator's velocity; the observation delay is the wire's own), else the simulator's state.
+    pub fn readings(&self) -> Sensed {
+        if let Some(s) = &self.sim2sim {
+            return s.latest().clone();
         }
         let r = &self.robot_state;
         Sensed {
