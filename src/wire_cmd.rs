@@ -10,6 +10,7 @@ use topa_control::netem::Impairment;
 use topa_control::remote::{serve, OperatorLink, UdpRobot};
 use topa_control::Controller;
 use topa_eval::settings::EvalSettings;
+use topa_sim_robot::report::WireRun;
 use topa_sim_robot::tracking::{Operator, Protocol};
 use topa_sim_robot::{SimRobot, SimRobotConfig};
 
@@ -40,19 +41,32 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
     if a.tracking {
         let mut op = Operator::bind(a.operator_listen, a.operator)?;
         let p = Protocol { settle_s: settings.settle_s, window_s: a.window, transient_s: 2.0 };
+        let in_process: Option<Vec<topa_eval::results::TrackingRow>> = match &a.compare {
+            Some(path) => Some(
+                serde_json::from_str(
+                    &std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?,
+                )
+                .with_context(|| format!("{}: not the tracking.json of `topa eval tracking`", path.display()))?,
+            ),
+            None => None,
+        };
         let rows = topa_sim_robot::tracking::run(&mut robot, &mut op, &p)?;
-        println!("| command | MAE (ours) | v_x | v_y | w_z | fell |\n|---|---:|---:|---:|---:|---|");
-        for r in &rows {
-            let [x, y, z] = r.mae_components;
-            println!("| {} | {:.3} | {x:.3} | {y:.3} | {z:.3} | {} |", r.key, r.mae, if r.fell { "yes" } else { "no" });
-        }
-        let worst = rows.iter().map(|r| r.mae).fold(0.0, f64::max);
-        let falls = rows.iter().filter(|r| r.fell).count();
-        println!("falls {falls}/6; worst MAE of the runs that stood {worst:.3}; wire: {:?}", robot.counters);
+        let policy = a.policy.display().to_string();
+        let run = WireRun {
+            policy: &policy,
+            sim2sim: a.sim2sim.to_string(),
+            loss: a.loss,
+            latency_ms: a.latency_ms,
+            jitter_ms: a.jitter_ms,
+            rows: &rows,
+            in_process: in_process.as_deref(),
+            counters: &robot.counters,
+        };
+        let page = topa_sim_robot::report::markdown(&run);
+        println!("{page}");
         if let Some(path) = &a.out {
-            let json = serde_json::json!({ "policy": a.policy, "sim2sim": a.sim2sim.to_string(), "loss": a.loss,
-                "latency_ms": a.latency_ms, "jitter_ms": a.jitter_ms, "rows": rows, "counters": robot.counters });
-            trainer::tensorfile::write_atomic(path, serde_json::to_string_pretty(&json)?.as_bytes())?;
+            trainer::tensorfile::write_atomic(path, serde_json::to_string_pretty(&run)?.as_bytes())?;
+            trainer::tensorfile::write_atomic(&path.with_extension("md"), page.as_bytes())?;
         }
         return Ok(());
     }

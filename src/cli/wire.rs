@@ -54,9 +54,13 @@ pub(crate) struct SimRobotArgs {
     /// The controller's operator socket (its --operator-listen).
     #[arg(long, default_value = "127.0.0.1:7702")]
     pub(crate) operator: SocketAddr,
-    /// Write the --tracking rows and the wire's counters as JSON here.
+    /// Write the --tracking rows and the wire's counters as JSON here, and the Markdown page beside it (.md).
     #[arg(long)]
     pub(crate) out: Option<PathBuf>,
+    /// The in-process result to set beside --tracking's (the tracking.json of `topa eval tracking` on the same
+    /// policy and sim2sim mode).
+    #[arg(long)]
+    pub(crate) compare: Option<PathBuf>,
 }
 
 /// The robot-side controller on a robot on the wire (a real robot's bridge, or `topa sim-robot`).

@@ -6,6 +6,7 @@
 //! processes, the evaluation acting as the operator.
 
 pub mod error;
+pub mod report;
 pub mod robot;
 pub mod tracking;
 
