@@ -96,6 +96,7 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
 }
 
 pub(crate) fn control(a: ControlArgs) -> Result<()> {
+    anyhow::ensure!(a.command.len() == 3, "--command takes three values, v_x,v_y,w_z (e.g. 0.5,0,0)");
     let mut c = Controller::load(&a.controller)?;
     let n = c.spec().n_motors();
     let period = c.spec().control_period_s;

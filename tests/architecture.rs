@@ -10,7 +10,7 @@ fn root() -> &'static Path {
 }
 
 /// The library crates, each a folder at the root; the command line is the root package (`src/`).
-const LIBRARIES: [&str; 10] = [
+const LIBRARIES: [&str; 11] = [
     "topa-control",
     "mujoco-sys",
     "mujoco",
@@ -21,6 +21,7 @@ const LIBRARIES: [&str; 10] = [
     "topa-sysid",
     "topa-tools",
     "topa-robot",
+    "topa-sim-robot",
 ];
 
 /// A crate's path dependencies (the workspace's own crates), from its manifest.

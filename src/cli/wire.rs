@@ -85,7 +85,7 @@ pub(crate) struct ControlArgs {
     #[arg(long)]
     pub(crate) start: bool,
     /// The velocity command to start with, v_x,v_y,w_z (m/s, m/s, rad/s).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 3, default_value = "0,0,0")]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "0,0,0")]
     pub(crate) command: Vec<f64>,
     /// Stop (damping) and exit after this long, s (default: run until interrupted).
     #[arg(long, value_parser = crate::cli::values::positive)]
