@@ -2,6 +2,7 @@
 //! `topa_sim_robot` and `topa_control::remote`.
 
 use std::ops::ControlFlow;
+use std::sync::mpsc::TryRecvError;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
@@ -116,20 +117,49 @@ pub(crate) fn control(a: ControlArgs) -> Result<()> {
         a.operator_listen,
         a.operator
     );
+    let keys = if a.keyboard {
+        let rx = topa_tools::operator_keys::spawn();
+        anyhow::ensure!(rx.is_some(), "--keyboard needs a terminal");
+        eprintln!("{}", topa_tools::operator_keys::HELP);
+        rx
+    } else {
+        None
+    };
+    let mut log = a.record.as_deref().map(topa_tools::control_log::ControlLog::create).transpose()?;
     let t0 = Instant::now();
     let mut last_report = 0.0;
     let mut last_mode = c.mode();
-    serve(&mut c, &mut robot, Some(&mut operator), |c, _, sent| {
+    let mut last_frame = f64::NAN;
+    serve(&mut c, &mut robot, Some(&mut operator), |c, r, sent| {
+        let mut quit = false;
+        if let Some(rx) = &keys {
+            loop {
+                match rx.try_recv() {
+                    Ok(m) => m.apply(c),
+                    Err(TryRecvError::Empty) => break,
+                    // The key reader ended: Ctrl-C at the terminal.
+                    Err(TryRecvError::Disconnected) => {
+                        quit = true;
+                        break;
+                    }
+                }
+            }
+        }
+        let t = t0.elapsed().as_secs_f64();
+        if let Some(log) = &mut log {
+            let fresh = r.timestamp_s != last_frame;
+            log.record(t, fresh.then_some(r), sent, c.command());
+        }
+        last_frame = r.timestamp_s;
         if sent.mode != last_mode {
             eprintln!("mode {:?} → {:?}", last_mode, sent.mode);
             last_mode = sent.mode;
         }
-        let t = t0.elapsed().as_secs_f64();
         if t - last_report >= 5.0 {
             last_report = t;
             eprintln!("t {t:5.1} s | {:?} | command {:?} | {:?}", sent.mode, c.command(), c.counters);
         }
-        if a.seconds.is_some_and(|s| t >= s) {
+        if quit || a.seconds.is_some_and(|s| t >= s) {
             c.stop();
             return ControlFlow::Break(());
         }
@@ -144,5 +174,9 @@ pub(crate) fn control(a: ControlArgs) -> Result<()> {
         robot.link().receiver.accepted,
         robot.link().receiver.refused
     );
+    if let Some(log) = log {
+        let dropped = log.dropped;
+        eprintln!("recorded {} ({dropped} messages dropped)", log.finish()?.display());
+    }
     Ok(())
 }

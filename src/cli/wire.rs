@@ -90,4 +90,10 @@ pub(crate) struct ControlArgs {
     /// Stop (damping) and exit after this long, s (default: run until interrupted).
     #[arg(long, value_parser = crate::cli::values::positive)]
     pub(crate) seconds: Option<f64>,
+    /// Drive from the terminal's keys (w/s a/d q/e steps, g start, space stop, r reset).
+    #[arg(long)]
+    pub(crate) keyboard: bool,
+    /// Record what the controller saw and sent as MCAP (Foxglove): /sensors, /command, /operator.
+    #[arg(long)]
+    pub(crate) record: Option<PathBuf>,
 }

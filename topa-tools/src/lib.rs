@@ -15,10 +15,12 @@
 
 pub mod bench;
 pub mod config_reference;
+pub mod control_log;
 pub mod controller_export;
 pub mod error;
 pub mod export;
 pub mod info;
+pub mod operator_keys;
 pub mod robot_info;
 
 pub use error::{Error, Result};
