@@ -10,9 +10,10 @@ use topa_control::driver::Driver;
 use topa_control::netem::Impairment;
 use topa_control::remote::{serve, OperatorLink, UdpRobot};
 use topa_control::Controller;
+use topa_eval::results::{PushGrid, TrackingRow};
 use topa_eval::settings::EvalSettings;
-use topa_sim_robot::report::WireRun;
-use topa_sim_robot::tracking::{Operator, Protocol};
+use topa_sim_robot::experiments::{Operator, Protocol};
+use topa_sim_robot::report::{WireResults, WireRun};
 use topa_sim_robot::{SimRobot, SimRobotConfig};
 
 use crate::cli::wire::{ControlArgs, SimRobotArgs};
@@ -39,37 +40,8 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
         period_s * 1e3,
         a.controller
     );
-    if a.tracking {
-        let mut op = Operator::bind(a.operator_listen, a.operator)?;
-        let p = Protocol { settle_s: settings.settle_s, window_s: a.window, transient_s: 2.0 };
-        let in_process: Option<Vec<topa_eval::results::TrackingRow>> = match &a.compare {
-            Some(path) => Some(
-                serde_json::from_str(
-                    &std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?,
-                )
-                .with_context(|| format!("{}: not the tracking.json of `topa eval tracking`", path.display()))?,
-            ),
-            None => None,
-        };
-        let rows = topa_sim_robot::tracking::run(&mut robot, &mut op, &p)?;
-        let policy = a.policy.display().to_string();
-        let run = WireRun {
-            policy: &policy,
-            sim2sim: a.sim2sim.to_string(),
-            loss: a.loss,
-            latency_ms: a.latency_ms,
-            jitter_ms: a.jitter_ms,
-            rows: &rows,
-            in_process: in_process.as_deref(),
-            counters: &robot.counters,
-        };
-        let page = topa_sim_robot::report::markdown(&run);
-        println!("{page}");
-        if let Some(path) = &a.out {
-            trainer::tensorfile::write_atomic(path, serde_json::to_string_pretty(&run)?.as_bytes())?;
-            trainer::tensorfile::write_atomic(&path.with_extension("md"), page.as_bytes())?;
-        }
-        return Ok(());
+    if a.tracking || a.push.is_some() {
+        return experiment(&a, &settings, &mut robot);
     }
     let t0 = Instant::now();
     let mut last_report = 0.0;
@@ -177,6 +149,55 @@ pub(crate) fn control(a: ControlArgs) -> Result<()> {
     if let Some(log) = log {
         let dropped = log.dropped;
         eprintln!("recorded {} ({dropped} messages dropped)", log.finish()?.display());
+    }
+    Ok(())
+}
+
+/// Reads the in-process result that `--compare` names.
+fn in_process<T: serde::de::DeserializeOwned>(path: &Option<std::path::PathBuf>, what: &str) -> Result<Option<T>> {
+    let Some(path) = path else { return Ok(None) };
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    Ok(Some(serde_json::from_str(&text).with_context(|| format!("{}: not the {what}", path.display()))?))
+}
+
+/// `--tracking` or `--push` through the controller, the page printed and written with its JSON.
+fn experiment(a: &SimRobotArgs, settings: &EvalSettings, robot: &mut SimRobot) -> Result<()> {
+    let mut op = Operator::bind(a.operator_listen, a.operator)?;
+    let p = Protocol { settle_s: settings.settle_s, window_s: a.window, transient_s: 2.0 };
+    if let Some(magnitudes) = &a.push {
+        anyhow::ensure!(
+            magnitudes.iter().all(|m| m.is_finite() && *m > 0.0),
+            "--push takes positive force magnitudes in N, e.g. 20,30"
+        );
+        let grid = in_process::<PushGrid>(&a.compare, "push.json of `topa eval push`")?;
+        let forces: Vec<[f64; 2]> =
+            magnitudes.iter().flat_map(|&m| [[m, 0.0], [-m, 0.0], [0.0, m], [0.0, -m]]).collect();
+        let fell_at = topa_sim_robot::experiments::push(robot, &mut op, &p, &forces)?;
+        let results =
+            WireResults::Push { forces: &forces, fell_at: &fell_at, window_s: a.window, in_process: grid.as_ref() };
+        return finish(a, robot, results);
+    }
+    let compare = in_process::<Vec<TrackingRow>>(&a.compare, "tracking.json of `topa eval tracking`")?;
+    let rows = topa_sim_robot::experiments::run(robot, &mut op, &p)?;
+    finish(a, robot, WireResults::Tracking { rows: &rows, in_process: compare.as_deref() })
+}
+
+fn finish(a: &SimRobotArgs, robot: &SimRobot, results: WireResults) -> Result<()> {
+    let policy = a.policy.display().to_string();
+    let run = WireRun {
+        policy: &policy,
+        sim2sim: a.sim2sim.to_string(),
+        loss: a.loss,
+        latency_ms: a.latency_ms,
+        jitter_ms: a.jitter_ms,
+        results,
+        counters: &robot.counters,
+    };
+    let page = topa_sim_robot::report::markdown(&run);
+    println!("{page}");
+    if let Some(path) = &a.out {
+        trainer::tensorfile::write_atomic(path, serde_json::to_string_pretty(&run)?.as_bytes())?;
+        trainer::tensorfile::write_atomic(&path.with_extension("md"), page.as_bytes())?;
     }
     Ok(())
 }

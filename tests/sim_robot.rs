@@ -11,7 +11,7 @@ use topa_control::netem::Impairment;
 use topa_control::remote::{serve, UdpRobot};
 use topa_control::{wire, Controller, Fault, Mode};
 use topa_eval::settings::{EvalSettings, Sim2SimMode};
-use topa_sim_robot::tracking::{Operator, Protocol};
+use topa_sim_robot::experiments::{Operator, Protocol};
 use topa_sim_robot::{SimRobot, SimRobotConfig};
 
 const POLICY: &str = "assets/policies/CA/seed1.json";
@@ -84,7 +84,7 @@ fn tracking(tag: &str, impairment: Impairment) -> (f64, bool, topa_sim_robot::ro
     let mut child = spawn_control(&dir, &p, false);
     let mut op = Operator::bind(p.operator, p.operator_in).unwrap();
     let protocol = Protocol { settle_s: 1.0, window_s: 4.0, transient_s: 2.0 };
-    let rows = topa_sim_robot::tracking::run(&mut r, &mut op, &protocol);
+    let rows = topa_sim_robot::experiments::run(&mut r, &mut op, &protocol);
     child.kill().ok();
     child.wait().ok();
     std::fs::remove_dir_all(dir).ok();

@@ -45,20 +45,24 @@ pub(crate) struct SimRobotArgs {
     /// Run the tracking experiment through the controller, acting as its operator: the six commands, one run each.
     #[arg(long)]
     pub(crate) tracking: bool,
-    /// Seconds per command of --tracking (after settling).
+    /// Push the torso through the controller, on a zero command: these force magnitudes, N, each along +x, −x,
+    /// +y, −y, one run each (the cells of `topa eval push`'s grid on its axes).
+    #[arg(long, value_delimiter = ',', conflicts_with = "tracking")]
+    pub(crate) push: Option<Vec<f64>>,
+    /// Seconds per command of --tracking (after settling), or per push.
     #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 10.0)]
     pub(crate) window: f64,
-    /// The operator's socket of --tracking.
+    /// The operator's socket of --tracking and --push.
     #[arg(long, default_value = "127.0.0.1:7703")]
     pub(crate) operator_listen: SocketAddr,
     /// The controller's operator socket (its --operator-listen).
     #[arg(long, default_value = "127.0.0.1:7702")]
     pub(crate) operator: SocketAddr,
-    /// Write the --tracking rows and the wire's counters as JSON here, and the Markdown page beside it (.md).
+    /// Write the results and the wire's counters as JSON here, and the Markdown page beside it (.md).
     #[arg(long)]
     pub(crate) out: Option<PathBuf>,
-    /// The in-process result to set beside --tracking's (the tracking.json of `topa eval tracking` on the same
-    /// policy and sim2sim mode).
+    /// The in-process result to set beside (the tracking.json of `topa eval tracking`, or the push.json of `topa
+    /// eval push`, on the same policy and sim2sim mode).
     #[arg(long)]
     pub(crate) compare: Option<PathBuf>,
 }

@@ -2,13 +2,13 @@
 //! MuJoCo in real time at the physics rate, holds the motors' PD on its side at that rate (as real drives do), and
 //! exchanges the wire format (`topa_control::wire`) with a controller in another process — the same controller a
 //! robot runs, only its driver differs. Loss, latency and jitter can be put between the two; the drives damp on
-//! their own watchdog when the controller falls silent. [`tracking`] runs the tracking experiment through the two
+//! their own watchdog when the controller falls silent. [`experiments`] runs the tracking and push experiments through the two
 //! processes, the evaluation acting as the operator.
 
 pub mod error;
+pub mod experiments;
 pub mod report;
 pub mod robot;
-pub mod tracking;
 
 pub use error::{Error, Result};
 pub use robot::{SimRobot, SimRobotConfig};

@@ -1,11 +1,11 @@
 //! The tracking experiment through the wire beside the same experiment in process: one Markdown table, written
 //! with the run's JSON.
 
-use topa_eval::results::TrackingRow;
+use topa_eval::results::{PushGrid, TrackingRow};
 
 use crate::robot::Counters;
 
-/// What one run through the wire was: the network, and what it counted.
+/// What one run through the wire was: the network, the results, and what the wire counted.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct WireRun<'a> {
     pub policy: &'a str,
@@ -13,9 +13,16 @@ pub struct WireRun<'a> {
     pub loss: f64,
     pub latency_ms: f64,
     pub jitter_ms: f64,
-    pub rows: &'a [TrackingRow],
-    pub in_process: Option<&'a [TrackingRow]>,
+    pub results: WireResults<'a>,
     pub counters: &'a Counters,
+}
+
+/// The experiment's results through the wire, and the in-process ones to compare with.
+#[derive(Debug, Clone, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WireResults<'a> {
+    Tracking { rows: &'a [TrackingRow], in_process: Option<&'a [TrackingRow]> },
+    Push { forces: &'a [[f64; 2]], fell_at: &'a [Option<f64>], window_s: f64, in_process: Option<&'a PushGrid> },
 }
 
 fn mae(r: &TrackingRow) -> String {
@@ -28,8 +35,12 @@ fn mae(r: &TrackingRow) -> String {
 
 /// The Markdown page of a run.
 pub fn markdown(run: &WireRun) -> String {
+    let what = match run.results {
+        WireResults::Tracking { .. } => "Tracking",
+        WireResults::Push { .. } => "Pushes",
+    };
     let mut s = format!(
-        "# Tracking through the wire\n\n`{}`, {} sim2sim; `topa control` and `topa sim-robot` as two processes on \
+        "# {what} through the wire\n\n`{}`, {} sim2sim; `topa control` and `topa sim-robot` as two processes on \
          loopback UDP; network: {:.0} % loss, {} ms latency, {} ms jitter per datagram.\n\n",
         run.policy,
         run.sim2sim,
@@ -37,14 +48,31 @@ pub fn markdown(run: &WireRun) -> String {
         run.latency_ms,
         run.jitter_ms
     );
-    s += "| command | MAE in process | MAE through the wire | difference |\n|---|---:|---:|---:|\n";
-    for r in run.rows {
-        let inproc = run.in_process.and_then(|rows| rows.iter().find(|p| p.key == r.key));
-        let (p, d) = match inproc {
-            Some(p) => (format!("{} ({} starts)", mae(p), p.starts), format!("{:+.3}", r.mae - p.mae)),
-            None => ("—".into(), "—".into()),
-        };
-        s += &format!("| {} | {p} | {} | {d} |\n", r.key, mae(r));
+    match &run.results {
+        WireResults::Tracking { rows, in_process } => {
+            s += "| command | MAE in process | MAE through the wire | difference |\n|---|---:|---:|---:|\n";
+            for r in rows.iter() {
+                let inproc = in_process.and_then(|rows| rows.iter().find(|p| p.key == r.key));
+                let (p, d) = match inproc {
+                    Some(p) => (format!("{} ({} starts)", mae(p), p.starts), format!("{:+.3}", r.mae - p.mae)),
+                    None => ("—".into(), "—".into()),
+                };
+                s += &format!("| {} | {p} | {} | {d} |\n", r.key, mae(r));
+            }
+        }
+        WireResults::Push { forces, fell_at, window_s, in_process } => {
+            let t = |f: Option<f64>| f.map_or(format!("stood {window_s} s"), |t| format!("fell at {t:.2} s"));
+            s += "| torso force (F_x, F_y), N | in process | through the wire |\n|---|---|---|\n";
+            for (f, fell) in forces.iter().zip(fell_at.iter()) {
+                let p = in_process.and_then(|g| {
+                    let ix = g.axis.iter().position(|a| (a - f[0]).abs() < 1e-9)?;
+                    let iy = g.axis.iter().position(|a| (a - f[1]).abs() < 1e-9)?;
+                    let tf = g.t_fall[iy * g.axis.len() + ix];
+                    Some(t((tf < g.window_s).then_some(tf)))
+                });
+                s += &format!("| ({}, {}) | {} | {} |\n", f[0], f[1], p.unwrap_or("—".into()), t(*fell));
+            }
+        }
     }
     let c = run.counters;
     s += &format!(

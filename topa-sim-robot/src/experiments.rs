@@ -1,7 +1,8 @@
-//! The tracking experiment through the two processes: the evaluation is the operator. For each of the six
-//! commands it puts the robot back on its gantry at the stand pose, asks the controller (over its operator socket)
-//! to restart from a soft start, waits for the policy to take over, settles on a zero command, then gives the
-//! command for the window — measuring exactly what the in-process experiment measures (`topa_eval::tracking`).
+//! The tracking and push experiments through the two processes: the evaluation is the operator. For each run it
+//! puts the robot back on its gantry at the stand pose, asks the controller (over its operator socket) to restart
+//! from a soft start, waits for the policy to take over, settles on a zero command, then gives the command (or
+//! pushes the torso) for the window — measuring what the in-process experiments measure (`topa_eval::tracking`,
+//! `topa_eval::push`).
 
 use std::net::SocketAddr;
 
@@ -51,54 +52,91 @@ impl Operator {
     }
 }
 
+/// One run: the robot back on its gantry, the controller restarted, the policy settled on a zero command; then
+/// `command` (and a constant torso force, N, in the torso's frame) for the window, `observe` called every control
+/// period of it with the time into the window and whether the robot has fallen by then. Returns when it first fell.
+fn episode(
+    robot: &mut SimRobot,
+    op: &mut Operator,
+    p: &Protocol,
+    command: [f64; 3],
+    torso_force: [f64; 2],
+    mut observe: impl FnMut(&SimRobot, f64, bool),
+) -> Result<Option<f64>> {
+    robot.reset()?;
+    let restart = OperatorMessage { command: [0.0; 3], stop: true, reset: true, start: true };
+    op.send(&restart);
+    let t_policy = wait_for_policy(robot, op, &restart)?;
+    let mut fell_at = None;
+    let mut started = false;
+    loop {
+        if !robot.step()? {
+            continue;
+        }
+        let t = robot.env().time() - t_policy;
+        if t >= p.settle_s + p.window_s {
+            break;
+        }
+        if t < p.settle_s {
+            if robot.env().has_fallen() && fell_at.is_none() {
+                fell_at = Some(0.0);
+            }
+            continue;
+        }
+        if !started {
+            op.send(&OperatorMessage { command, ..Default::default() });
+            let env = robot.env_mut();
+            let mut push = *env.perturbation();
+            push.torso_force_local = [torso_force[0], torso_force[1], 0.0];
+            env.set_perturbation_struct(push);
+            started = true;
+        }
+        let tw = t - p.settle_s;
+        if fell_at.is_none() && robot.env().has_fallen() {
+            fell_at = Some(tw);
+        }
+        observe(robot, tw, fell_at.is_some());
+    }
+    let env = robot.env_mut();
+    let mut calm = *env.perturbation();
+    calm.torso_force_local = [0.0; 3];
+    env.set_perturbation_struct(calm);
+    Ok(fell_at)
+}
+
 /// The six commands, one run each, through the controller on the other side of the wire.
 pub fn run(robot: &mut SimRobot, op: &mut Operator, p: &Protocol) -> Result<Vec<TrackingRow>> {
     let dt = robot.control_period_s();
     let mut rows = Vec::new();
     for (key, _, command) in COMMANDS {
-        robot.reset()?;
-        let restart = OperatorMessage { command: [0.0; 3], stop: true, reset: true, start: true };
-        op.send(&restart);
-        let t_policy = wait_for_policy(robot, op, &restart)?;
         let (mut ours, mut whole, mut gait) =
             (TrackingAccumulator::default(), TrackingAccumulator::default(), GaitAccumulator::default());
-        let mut fell_at = None;
-        let mut commanded = false;
-        loop {
-            if !robot.step()? {
-                continue;
-            }
+        let fell_at = episode(robot, op, p, command, [0.0; 2], |robot, tw, fallen| {
             let env = robot.env();
-            let t = env.time() - t_policy;
-            if t >= p.settle_s + p.window_s {
-                break;
-            }
-            if t < p.settle_s {
-                if env.has_fallen() && fell_at.is_none() {
-                    fell_at = Some(0.0);
-                }
-                continue;
-            }
-            if !commanded {
-                op.send(&OperatorMessage { command, ..Default::default() });
-                commanded = true;
-            }
-            let tw = t - p.settle_s;
-            if fell_at.is_none() && env.has_fallen() {
-                fell_at = Some(tw);
-            }
             whole.add_state(command, env.robot_state());
-            if tw > p.transient_s && fell_at.is_none() {
+            if tw > p.transient_s && !fallen {
                 ours.add_state(command, env.robot_state());
                 gait.add(env, dt);
             }
-        }
+        })?;
         let start = StartResult { ours: ours.finish(), whole: whole.finish(), gait, fell_at };
         let row = combine(key, command, &[start]);
         log::info!("{key}: MAE {:.3}{}", row.mae, if row.fell { " (fell)" } else { "" });
         rows.push(row);
     }
     Ok(rows)
+}
+
+/// Constant torso forces (F_x, F_y), N, one run each on a zero command, through the controller: the time of
+/// each run's fall (None: it stood the window), as the in-process push grid measures it.
+pub fn push(robot: &mut SimRobot, op: &mut Operator, p: &Protocol, forces: &[[f64; 2]]) -> Result<Vec<Option<f64>>> {
+    let mut out = Vec::new();
+    for &f in forces {
+        let fell = episode(robot, op, p, [0.0; 3], f, |_, _, _| {})?;
+        log::info!("push ({}, {}) N: {}", f[0], f[1], fell.map_or("stood".into(), |t| format!("fell at {t:.2} s")));
+        out.push(fell);
+    }
+    Ok(out)
 }
 
 /// Steps the held robot until the controller's soft start lowered it and its policy took over; returns the
