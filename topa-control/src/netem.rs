@@ -54,7 +54,7 @@ impl Netem {
             rng: ChaCha8Rng::seed_from_u64(seed),
             due: vec![f64::INFINITY; SLOTS],
             len: vec![0; SLOTS],
-            data: vec![Vec::with_capacity(1024); SLOTS],
+            data: (0..SLOTS).map(|_| Vec::with_capacity(1024)).collect(),
             lost: 0,
         }
     }

@@ -195,8 +195,8 @@ impl SimRobot {
             self.counters.overruns += u64::from(lag > self.dt);
         }
         let now = self.wall().max(due);
-        let period = self.steps % self.decimation == 0;
-        if self.steps % self.frame_every == 0 {
+        let period = self.steps.is_multiple_of(self.decimation);
+        if self.steps.is_multiple_of(self.frame_every) {
             self.send_frame(now);
         }
         self.deliver_frames(now);
