@@ -80,7 +80,8 @@ impl Netem {
         loop {
             let (i, t) =
                 self.due.iter().copied().enumerate().fold((0, f64::INFINITY), |b, x| if x.1 < b.1 { x } else { b });
-            if t > now_s {
+            // An infinite due time is an empty slot.
+            if t.is_infinite() || t > now_s {
                 return;
             }
             self.due[i] = f64::INFINITY;
