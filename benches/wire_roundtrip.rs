@@ -44,7 +44,7 @@ fn main() -> Result<()> {
             };
             wire::decode_sensors(d, &mut r).map_err(anyhow::Error::msg)?;
             let out = c.tick(&r.frame()).map_err(anyhow::Error::msg)?;
-            ctl.send(wire::encode_command(out, 2, seq, r.timestamp_s, &mut buf))?;
+            ctl.send(wire::encode_command(out, 2, 0, seq, r.timestamp_s, &mut buf))?;
         }
         Ok(())
     });
@@ -58,7 +58,7 @@ fn main() -> Result<()> {
     for seq in 0..(TRIPS as u32 + 200) {
         r.timestamp_s = seq as f64 * period;
         let t = Instant::now();
-        robot.send(wire::encode_sensors(&r, 1, seq, &mut buf))?;
+        robot.send(wire::encode_sensors(&r, 1, 0, seq, &mut buf))?;
         let d = loop {
             if let Some(d) = robot.poll(|d| wire::check(d, wire::COMMAND, n).map(|h| h.0))? {
                 break d;

@@ -71,9 +71,8 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
 pub(crate) fn control(a: ControlArgs) -> Result<()> {
     anyhow::ensure!(a.command.len() == 3, "--command takes three values, v_x,v_y,w_z (e.g. 0.5,0,0)");
     let mut c = Controller::load(&a.controller)?;
-    let n = c.spec().n_motors();
-    let period = c.spec().control_period_s;
-    let mut robot = UdpRobot::bind(a.listen, a.robot, n, period).with_context(|| format!("binding {}", a.listen))?;
+    let (n, period) = (c.spec().n_motors(), c.spec().control_period_s);
+    let mut robot = UdpRobot::bind(a.listen, a.robot, c.spec()).with_context(|| format!("binding {}", a.listen))?;
     let mut operator =
         OperatorLink::bind(a.operator_listen, a.operator).with_context(|| format!("binding {}", a.operator_listen))?;
     c.set_command([a.command[0], a.command[1], a.command[2]]);

@@ -154,7 +154,8 @@ fn a_silent_robot_is_damped_by_the_controller_within_three_periods() {
     let n = c.spec().n_motors();
     let period = c.spec().control_period_s;
     let (robot_addr, ctl_addr) = (free_addr(), free_addr());
-    let mut driver = UdpRobot::bind(ctl_addr, robot_addr, n, period).unwrap();
+    let mut driver = UdpRobot::bind(ctl_addr, robot_addr, c.spec()).unwrap();
+    let robot_id = c.spec().robot_id();
     let sender = UdpSocket::bind(robot_addr).unwrap();
     // The robot sends 50 frames at the control rate from another thread, then stops.
     let feeder = std::thread::spawn(move || {
@@ -164,7 +165,7 @@ fn a_silent_robot_is_damped_by_the_controller_within_three_periods() {
         for seq in 0..50u32 {
             std::thread::sleep(Duration::from_secs_f64(period));
             r.timestamp_s = seq as f64 * period;
-            sender.send_to(wire::encode_sensors(&r, 9, seq, &mut buf), ctl_addr).unwrap();
+            sender.send_to(wire::encode_sensors(&r, 9, robot_id, seq, &mut buf), ctl_addr).unwrap();
             last = Instant::now();
         }
         last
@@ -186,5 +187,27 @@ fn a_silent_robot_is_damped_by_the_controller_within_three_periods() {
     assert!(late <= 3.0 * period + 0.005, "damping {late} s after the last frame (3 periods = {} s)", 3.0 * period);
     assert!(late >= 2.0 * period, "damping {late} s after the last frame: before two periods of silence");
     assert!(c.counters.ticks >= 40, "the frames before drove the controller: {:?}", c.counters);
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// A controller file for another robot with as many motors (Cassie's, against TopA): each side refuses the other's
+/// datagrams by the robot id and counts them; the robot stays on its gantry.
+#[test]
+fn a_controller_for_another_robot_is_refused_on_the_wire() {
+    let _turn = REAL_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempdir("other-robot");
+    topa_tools::controller_export::export(Path::new("assets/policies/cassie/seed1.json"), &dir).unwrap();
+    let p = Ports::new();
+    let mut r = robot(&p, Impairment::default());
+    let mut child = spawn_control(&dir, &p, true);
+    let started = Instant::now();
+    while started.elapsed() < Duration::from_secs(3) {
+        r.step().unwrap();
+    }
+    child.kill().ok();
+    child.wait().ok();
+    assert!(r.counters.commands_refused > 10, "Cassie's commands were refused: {:?}", r.counters);
+    assert_eq!(r.counters.commands_applied, 0);
+    assert!(r.held(), "the robot never left its gantry");
     std::fs::remove_dir_all(dir).ok();
 }

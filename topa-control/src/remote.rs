@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 use crate::controller::{Controller, MotorCommand};
 use crate::driver::{run_period, Driver, Readings};
 use crate::operator::OperatorMessage;
+use crate::spec::ControllerSpec;
 use crate::transport::Link;
 use crate::wire;
 
@@ -19,6 +20,7 @@ pub const PEER_ID: u32 = 0x4354_524c; // "CTRL"
 /// clocks are not synchronised, and the state machine's timing (soft start, staleness) is this side's.
 pub struct UdpRobot {
     link: Link,
+    robot: u32,
     n: usize,
     seq: u32,
     t0: Instant,
@@ -30,10 +32,15 @@ pub struct UdpRobot {
 }
 
 impl UdpRobot {
-    /// Binds `local` and talks to the robot at `robot`; the controller ticks every `period_s`.
-    pub fn bind(local: SocketAddr, robot: SocketAddr, n_motors: usize, period_s: f64) -> std::io::Result<UdpRobot> {
+    /// Binds `local` and talks to the robot at `robot`, the one `spec` was made for (frames of another robot are
+    /// refused); the controller ticks every control period of the spec.
+    pub fn bind(local: SocketAddr, robot: SocketAddr, spec: &ControllerSpec) -> std::io::Result<UdpRobot> {
+        let (n_motors, period_s) = (spec.n_motors(), spec.control_period_s);
+        let mut link = Link::bind(local, robot)?;
+        link.receiver.robot = Some(spec.robot_id());
         Ok(UdpRobot {
-            link: Link::bind(local, robot)?,
+            link,
+            robot: spec.robot_id(),
             n: n_motors,
             seq: 0,
             t0: Instant::now(),
@@ -80,7 +87,7 @@ impl Driver for UdpRobot {
 
     fn send(&mut self, c: &MotorCommand) {
         let t = self.t0.elapsed().as_secs_f64();
-        let d = wire::encode_command(c, PEER_ID, self.seq, t, &mut self.buf);
+        let d = wire::encode_command(c, PEER_ID, self.robot, self.seq, t, &mut self.buf);
         self.seq = self.seq.wrapping_add(1);
         // A robot not listening (yet) refuses the datagram; the stream goes on.
         let _ = self.link.send(d);

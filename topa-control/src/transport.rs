@@ -114,7 +114,7 @@ mod tests {
         let mut buf = Vec::new();
         for seq in 0..200u32 {
             r.timestamp_s = seq as f64;
-            robot.send(wire::encode_sensors(&r, 5, seq, &mut buf)).unwrap();
+            robot.send(wire::encode_sensors(&r, 5, 0, seq, &mut buf)).unwrap();
         }
         robot.send(b"not a frame").unwrap();
         std::thread::sleep(std::time::Duration::from_millis(50));
@@ -125,7 +125,7 @@ mod tests {
         assert_eq!(ctl.receiver.refused, 1, "the garbage");
         assert_eq!((ctl.receiver.accepted, ctl.superseded), (200, 199), "every frame admitted in order, kept the last");
         // Replayed frames are refused: the stream only moves forward.
-        robot.send(wire::encode_sensors(&r, 5, 3, &mut buf)).unwrap();
+        robot.send(wire::encode_sensors(&r, 5, 0, 3, &mut buf)).unwrap();
         std::thread::sleep(std::time::Duration::from_millis(20));
         assert!(wait_poll(&mut ctl, 2).is_none());
         assert!(matches!(ctl.receiver.last_error, Some(WireError::Stale { got: 3, last: 199 })));

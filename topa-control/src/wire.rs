@@ -13,7 +13,7 @@
 //! | 10 | 2 | reserved (0) |
 //! | 12 | 4 | the sender's peer id |
 //! | 16 | 4 | sequence number (each sender counts up from 0) |
-//! | 20 | 4 | reserved (0) |
+//! | 20 | 4 | robot id: CRC-32 (IEEE) of the motors' actuator names, each followed by `\n` (0 in an operator message) |
 //! | 24 | 8 | timestamp, s (f64, the sender's monotonic clock) |
 //! | 32 | 8·k | payload, f64: a sensor frame's orientation (w x y z), gyro (3), base velocity (3, zeros when not given), motor positions (n), motor velocities (n) — k = 10 + 2n; a command's targets (n), kp (n), kd (n) — k = 3n; an operator message's velocity command v_x, v_y, w_z — k = 3 |
 //! | 32 + 8k | 4 | CRC-32 (IEEE) of every byte before it |
@@ -48,6 +48,8 @@ pub enum WireError {
     Checksum,
     #[error("from peer {0}, not the one this side talks to")]
     Peer(u32),
+    #[error("robot id {got:#010x}, this robot is {expected:#010x}: a controller file for another robot (export one for this robot's policy)")]
+    Robot { got: u32, expected: u32 },
     #[error("sequence {got} is not after {last}")]
     Stale { got: u32, last: u32 },
 }
@@ -60,6 +62,18 @@ pub struct Header {
     pub n: usize,
     pub peer: u32,
     pub seq: u32,
+    pub robot: u32,
+}
+
+/// A robot's id on the wire, from its motors' actuator names in order: both sides compute it from their own files,
+/// so a controller for another robot (even one with as many motors) is refused.
+pub fn robot_id<'a>(actuators: impl IntoIterator<Item = &'a str>) -> u32 {
+    let mut h = crc32fast::Hasher::new();
+    for a in actuators {
+        h.update(a.as_bytes());
+        h.update(b"\n");
+    }
+    h.finalize()
 }
 
 /// A datagram's size for `n` motors.
@@ -82,7 +96,7 @@ fn put_header(buf: &mut [u8], h: &Header, timestamp: f64) {
     buf[10..12].fill(0);
     buf[12..16].copy_from_slice(&h.peer.to_le_bytes());
     buf[16..20].copy_from_slice(&h.seq.to_le_bytes());
-    buf[20..24].fill(0);
+    buf[20..24].copy_from_slice(&h.robot.to_le_bytes());
     buf[24..32].copy_from_slice(&timestamp.to_le_bytes());
 }
 
@@ -98,11 +112,11 @@ fn put_values<'a>(buf: &mut [u8], values: impl Iterator<Item = &'a f64>) -> usiz
 }
 
 /// Encodes a sensor frame into `buf` (resized once to the frame's size); returns the datagram.
-pub fn encode_sensors<'b>(r: &Readings, peer: u32, seq: u32, buf: &'b mut Vec<u8>) -> &'b [u8] {
+pub fn encode_sensors<'b>(r: &Readings, peer: u32, robot: u32, seq: u32, buf: &'b mut Vec<u8>) -> &'b [u8] {
     let n = r.motor_pos.len();
     buf.resize(size(SENSORS, n), 0);
     let flags = u8::from(r.base_velocity.is_some());
-    put_header(buf, &Header { kind: SENSORS, flags, n, peer, seq }, r.timestamp_s);
+    put_header(buf, &Header { kind: SENSORS, flags, n, peer, seq, robot }, r.timestamp_s);
     let v = r.base_velocity.unwrap_or_default();
     let values = r.orientation.iter().chain(&r.gyro).chain(&v).chain(&r.motor_pos).chain(&r.motor_vel);
     let len = put_values(buf, values);
@@ -110,7 +124,14 @@ pub fn encode_sensors<'b>(r: &Readings, peer: u32, seq: u32, buf: &'b mut Vec<u8
 }
 
 /// Encodes a motor command into `buf`; returns the datagram.
-pub fn encode_command<'b>(c: &MotorCommand, peer: u32, seq: u32, timestamp: f64, buf: &'b mut Vec<u8>) -> &'b [u8] {
+pub fn encode_command<'b>(
+    c: &MotorCommand,
+    peer: u32,
+    robot: u32,
+    seq: u32,
+    timestamp: f64,
+    buf: &'b mut Vec<u8>,
+) -> &'b [u8] {
     let n = c.target.len();
     buf.resize(size(COMMAND, n), 0);
     let flags = match c.mode {
@@ -119,7 +140,7 @@ pub fn encode_command<'b>(c: &MotorCommand, peer: u32, seq: u32, timestamp: f64,
         Mode::Policy => 2,
         Mode::Damping(_) => 3,
     };
-    put_header(buf, &Header { kind: COMMAND, flags, n, peer, seq }, timestamp);
+    put_header(buf, &Header { kind: COMMAND, flags, n, peer, seq, robot }, timestamp);
     let len = put_values(buf, c.target.iter().chain(&c.kp).chain(&c.kd));
     &buf[..len]
 }
@@ -128,7 +149,7 @@ pub fn encode_command<'b>(c: &MotorCommand, peer: u32, seq: u32, timestamp: f64,
 pub fn encode_operator<'b>(o: &OperatorMessage, peer: u32, seq: u32, timestamp: f64, buf: &'b mut Vec<u8>) -> &'b [u8] {
     buf.resize(size(OPERATOR, 0), 0);
     let flags = u8::from(o.stop) | u8::from(o.reset) << 1 | u8::from(o.start) << 2;
-    put_header(buf, &Header { kind: OPERATOR, flags, n: 0, peer, seq }, timestamp);
+    put_header(buf, &Header { kind: OPERATOR, flags, n: 0, peer, seq, robot: 0 }, timestamp);
     let len = put_values(buf, o.command.iter());
     &buf[..len]
 }
@@ -166,7 +187,7 @@ pub fn check(d: &[u8], kind: u8, n: usize) -> Result<(Header, f64), WireError> {
         return Err(WireError::Checksum);
     }
     let word = |at: usize| u32::from_le_bytes(d[at..at + 4].try_into().unwrap());
-    let header = Header { kind, flags: d[6], n, peer: word(12), seq: word(16) };
+    let header = Header { kind, flags: d[6], n, peer: word(12), seq: word(16), robot: word(20) };
     Ok((header, f64::from_le_bytes(d[24..32].try_into().unwrap())))
 }
 
@@ -218,6 +239,8 @@ pub fn decode_command(d: &[u8], c: &mut MotorCommand) -> Result<Header, WireErro
 pub struct Receiver {
     /// The peer to accept (None: the first valid sender becomes it).
     pub peer: Option<u32>,
+    /// The robot id to accept (None: any).
+    pub robot: Option<u32>,
     pub last_seq: Option<u32>,
     pub accepted: u64,
     pub refused: u64,
@@ -228,6 +251,9 @@ impl Receiver {
     /// Admits a decoded header, or refuses it.
     pub fn admit(&mut self, h: Result<Header, WireError>) -> Result<Header, WireError> {
         let r = h.and_then(|h| {
+            if let Some(expected) = self.robot.filter(|&r| r != h.robot) {
+                return Err(WireError::Robot { got: h.robot, expected });
+            }
             if self.peer.is_some_and(|p| p != h.peer) {
                 return Err(WireError::Peer(h.peer));
             }
@@ -269,13 +295,13 @@ mod tests {
     #[test]
     fn frames_and_commands_round_trip() {
         let (r, mut buf) = (readings(), Vec::new());
-        let d = encode_sensors(&r, 7, 42, &mut buf).to_vec();
+        let d = encode_sensors(&r, 7, 11, 42, &mut buf).to_vec();
         assert_eq!(d.len(), 32 + 8 * 16 + 4);
         let mut back = Readings::new(3);
         let h = decode_sensors(&d, &mut back).unwrap();
-        assert_eq!((h.peer, h.seq, back), (7, 42, r));
+        assert_eq!((h.peer, h.seq, h.robot, back), (7, 42, 11, r));
         let c = MotorCommand { mode: Mode::Policy, target: vec![0.1; 3], kp: vec![30.0; 3], kd: vec![1.0; 3] };
-        let d = encode_command(&c, 9, 3, 0.5, &mut buf).to_vec();
+        let d = encode_command(&c, 9, 11, 3, 0.5, &mut buf).to_vec();
         let mut got = MotorCommand { mode: Mode::Passive, target: vec![0.0; 3], kp: vec![0.0; 3], kd: vec![0.0; 3] };
         decode_command(&d, &mut got).unwrap();
         assert_eq!(got, c);
@@ -284,7 +310,7 @@ mod tests {
     #[test]
     fn every_corruption_is_refused_by_name() {
         let mut buf = Vec::new();
-        let good = encode_sensors(&readings(), 7, 1, &mut buf).to_vec();
+        let good = encode_sensors(&readings(), 7, 11, 1, &mut buf).to_vec();
         let mut r = Readings::new(3);
         let flip = |at: usize| {
             let mut d = good.clone();
@@ -304,13 +330,16 @@ mod tests {
 
     #[test]
     fn a_receiver_takes_one_peer_and_newer_frames_only() {
-        let mut rx = Receiver::default();
-        let h = |peer, seq| Ok(Header { kind: SENSORS, flags: 0, n: 3, peer, seq });
+        let mut rx = Receiver { robot: Some(11), ..Receiver::default() };
+        let h = |peer, seq| Ok(Header { kind: SENSORS, flags: 0, n: 3, peer, seq, robot: 11 });
+        let other = Ok(Header { kind: SENSORS, flags: 0, n: 3, peer: 7, seq: 9, robot: 12 });
+        assert_eq!(rx.admit(other), Err(WireError::Robot { got: 12, expected: 11 }));
         assert!(rx.admit(h(7, 1)).is_ok());
         assert_eq!(rx.admit(h(8, 2)), Err(WireError::Peer(8)));
         assert_eq!(rx.admit(h(7, 1)), Err(WireError::Stale { got: 1, last: 1 }));
         assert!(rx.admit(h(7, 5)).is_ok());
         assert_eq!(rx.admit(Err(WireError::Checksum)), Err(WireError::Checksum));
-        assert_eq!((rx.accepted, rx.refused), (2, 3));
+        assert_eq!((rx.accepted, rx.refused), (2, 4));
+        assert_ne!(robot_id(["l_hip", "r_hip"]), robot_id(["r_hip", "l_hip"]), "the order is the identity");
     }
 }

@@ -92,6 +92,7 @@ pub struct SimRobot {
     dt: f64,
     decimation: u64,
     frame_every: u64,
+    robot_id: u32,
     pub counters: Counters,
 }
 
@@ -99,9 +100,12 @@ impl SimRobot {
     /// A robot from a one-env batch (its config says the physics and the realistic models), on its gantry.
     pub fn new(batch: BatchEnv<RobotEnv>, cfg: &SimRobotConfig) -> Result<SimRobot> {
         cfg.impairment.validate()?;
-        let link =
+        let mut link =
             Link::bind(cfg.listen, cfg.controller).map_err(|source| Error::Socket { addr: cfg.listen, source })?;
         let env = &batch.tasks()[0];
+        // Commands from a controller made for another robot are refused (and counted).
+        let robot_id = wire::robot_id(env.indices().spec.motors.iter().map(|m| m.actuator.as_str()));
+        link.receiver.robot = Some(robot_id);
         let n = env.indices().n_motors;
         let m = env.data().model();
         let damping_kd = env.indices().actuators.iter().map(|&a| -m.actuator_biasprm()[a][2]).collect();
@@ -127,6 +131,7 @@ impl SimRobot {
             steps: 0,
             dt,
             decimation,
+            robot_id,
             frame_every: cfg.frame_hz.map_or(1, |hz| ((1.0 / (hz * dt)).round() as u64).max(1)),
             counters: Counters::default(),
         };
@@ -222,7 +227,7 @@ impl SimRobot {
         r.base_velocity = Some(s.lin_vel);
         r.motor_pos.copy_from_slice(&s.motor_pos);
         r.motor_vel.copy_from_slice(&s.motor_vel);
-        let d = wire::encode_sensors(r, PEER_ID, self.seq, &mut self.buf);
+        let d = wire::encode_sensors(r, PEER_ID, self.robot_id, self.seq, &mut self.buf);
         self.seq = self.seq.wrapping_add(1);
         self.up.push(now, d);
         self.counters.frames_sent += 1;
