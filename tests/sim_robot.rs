@@ -155,7 +155,7 @@ fn a_silent_robot_is_damped_by_the_controller_within_three_periods() {
     let period = c.spec().control_period_s;
     let (robot_addr, ctl_addr) = (free_addr(), free_addr());
     let mut driver = UdpRobot::bind(ctl_addr, robot_addr, c.spec()).unwrap();
-    let robot_id = c.spec().robot_id();
+    let robot_id = wire::robot_id(c.spec().motors.iter().map(|m| m.name.as_str()));
     let sender = UdpSocket::bind(robot_addr).unwrap();
     // The robot sends 50 frames at the control rate from another thread, then stops.
     let feeder = std::thread::spawn(move || {

@@ -36,11 +36,12 @@ impl UdpRobot {
     /// refused); the controller ticks every control period of the spec.
     pub fn bind(local: SocketAddr, robot: SocketAddr, spec: &ControllerSpec) -> std::io::Result<UdpRobot> {
         let (n_motors, period_s) = (spec.n_motors(), spec.control_period_s);
+        let id = wire::robot_id(spec.motors.iter().map(|m| m.name.as_str()));
         let mut link = Link::bind(local, robot)?;
-        link.receiver.robot = Some(spec.robot_id());
+        link.receiver.robot = Some(id);
         Ok(UdpRobot {
             link,
-            robot: spec.robot_id(),
+            robot: id,
             n: n_motors,
             seq: 0,
             t0: Instant::now(),

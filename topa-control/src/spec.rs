@@ -120,11 +120,6 @@ impl ControllerSpec {
         Ok((spec, weights))
     }
 
-    /// This robot's id on the wire (`wire::robot_id` of the motors' names).
-    pub fn robot_id(&self) -> u32 {
-        crate::wire::robot_id(self.motors.iter().map(|m| m.name.as_str()))
-    }
-
     pub fn n_motors(&self) -> usize {
         self.motors.len()
     }

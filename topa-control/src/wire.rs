@@ -65,8 +65,9 @@ pub struct Header {
     pub robot: u32,
 }
 
-/// A robot's id on the wire, from its motors' actuator names in order: both sides compute it from their own files,
-/// so a controller for another robot (even one with as many motors) is refused.
+/// A robot's id on the wire, from its motors' actuator names in order (a controller file's motor names): both
+/// sides compute it from their own files, so a controller for another robot (even one with as many motors) is
+/// refused.
 pub fn robot_id<'a>(actuators: impl IntoIterator<Item = &'a str>) -> u32 {
     let mut h = crc32fast::Hasher::new();
     for a in actuators {
