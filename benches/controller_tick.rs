@@ -10,11 +10,9 @@ use topa_control::{Controller, ControllerSpec, SensorFrame};
 
 const TICKS: usize = 20_000;
 
-fn quantiles(mut v: Vec<f64>) -> (f64, f64, f64) {
-    v.sort_by(f64::total_cmp);
-    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
-    (at(0.5), at(0.99), v[v.len() - 1])
-}
+#[path = "common/stats.rs"]
+mod stats;
+use stats::quantiles;
 
 fn main() -> Result<()> {
     let dir = std::env::temp_dir().join(format!("topa-bench-controller-{}", std::process::id()));

@@ -13,11 +13,9 @@ use topa_control::{wire, Controller, Mode, MotorCommand};
 
 const TRIPS: usize = 5_000;
 
-fn quantiles(mut v: Vec<f64>) -> (f64, f64, f64) {
-    v.sort_by(f64::total_cmp);
-    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
-    (at(0.5), at(0.99), v[v.len() - 1])
-}
+#[path = "common/stats.rs"]
+mod stats;
+use stats::quantiles;
 
 fn free() -> SocketAddr {
     UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap()
