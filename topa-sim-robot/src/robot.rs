@@ -219,14 +219,15 @@ impl SimRobot {
     }
 
     fn send_frame(&mut self, now: f64) {
-        let s = self.batch.tasks()[0].readings();
+        let env = &self.batch.tasks()[0];
+        let s = env.readings();
         let r = &mut self.readings;
-        r.timestamp_s = self.batch.tasks()[0].time();
+        r.timestamp_s = env.time();
         r.orientation = s.orientation;
-        r.gyro = s.ang_vel;
+        r.gyro = s.gyro;
         r.base_velocity = Some(s.lin_vel);
-        r.motor_pos.copy_from_slice(&s.motor_pos);
-        r.motor_vel.copy_from_slice(&s.motor_vel);
+        r.motor_pos.copy_from_slice(s.motor_pos);
+        r.motor_vel.copy_from_slice(s.motor_vel);
         let d = wire::encode_sensors(r, PEER_ID, self.robot_id, self.seq, &mut self.buf);
         self.seq = self.seq.wrapping_add(1);
         self.up.push(now, d);

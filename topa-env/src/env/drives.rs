@@ -3,8 +3,18 @@
 //! its driver would send back.
 
 use super::RobotEnv;
-use crate::sim2sim::Sensed;
 use crate::state;
+
+/// What a robot's driver reads from it: the IMU's attitude (world ← torso, w x y z) and gyro, the base velocity
+/// (the robot's estimator's, torso frame), the motors' encoders.
+#[derive(Debug, Clone, Copy)]
+pub struct DriverReadings<'a> {
+    pub orientation: [f64; 4],
+    pub gyro: [f64; 3],
+    pub lin_vel: [f64; 3],
+    pub motor_pos: &'a [f64],
+    pub motor_vel: &'a [f64],
+}
 
 impl RobotEnv {
     /// One physics step with the drives' PD: per motor a target (rad), a stiffness kp (N·m/rad) and a damping kd
@@ -38,18 +48,29 @@ impl RobotEnv {
 
     /// What the robot's driver reads now: with realistic sim2sim its newest sensor readings (noise, quantisation,
     /// the state estimator's velocity; the observation delay is the wire's own), else the simulator's state.
-    pub fn readings(&self) -> Sensed {
-        if let Some(s) = &self.sim2sim {
-            return s.latest().clone();
-        }
-        let r = &self.robot_state;
-        Sensed {
-            lin_vel: r.lin_vel,
-            ang_vel: r.ang_vel,
-            gravity: r.gravity,
-            orientation: r.base_quat,
-            motor_pos: r.motor_pos.clone(),
-            motor_vel: r.motor_vel.clone(),
+    /// Borrowed, not copied: a robot on the wire reads this every physics step.
+    pub fn readings(&self) -> DriverReadings<'_> {
+        match &self.sim2sim {
+            Some(s) => {
+                let s = s.latest();
+                DriverReadings {
+                    orientation: s.orientation,
+                    gyro: s.ang_vel,
+                    lin_vel: s.lin_vel,
+                    motor_pos: &s.motor_pos,
+                    motor_vel: &s.motor_vel,
+                }
+            }
+            None => {
+                let r = &self.robot_state;
+                DriverReadings {
+                    orientation: r.base_quat,
+                    gyro: r.ang_vel,
+                    lin_vel: r.lin_vel,
+                    motor_pos: &r.motor_pos,
+                    motor_vel: &r.motor_vel,
+                }
+            }
         }
     }
 

@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-mod drives;
+pub mod drives;
 mod ground;
 mod observe;
 mod randomize;
