@@ -10,6 +10,7 @@ use topa_control::driver::Driver;
 use topa_control::netem::Impairment;
 use topa_control::remote::{serve, OperatorLink, UdpRobot};
 use topa_control::Controller;
+use topa_eval::course::CourseResult;
 use topa_eval::results::{PushGrid, TrackingRow};
 use topa_eval::settings::EvalSettings;
 use topa_sim_robot::experiments::{Operator, Protocol};
@@ -30,7 +31,17 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
         seed: a.seed,
         frame_hz: a.frame_hz,
     };
-    let mut robot = SimRobot::for_policy(&a.policy, &settings, &rc)?;
+    let course = match &a.course {
+        Some(path) => Some(
+            topa_env::course::Course::load(&topa_env::assets::resolve_path(&path.to_string_lossy()))
+                .map_err(anyhow::Error::msg)?,
+        ),
+        None => None,
+    };
+    let mut robot = match &course {
+        Some(course) => SimRobot::on_course(&a.policy, course, &settings, &rc)?,
+        None => SimRobot::for_policy(&a.policy, &settings, &rc)?,
+    };
     let (physics_dt, period_s) = (robot.env().config().timestep, robot.control_period_s());
     eprintln!(
         "simulated robot on {} ({} sim2sim, physics {:.0} Hz, control period {:.0} ms) → controller {}; on its gantry until a soft start",
@@ -40,6 +51,9 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
         period_s * 1e3,
         a.controller
     );
+    if let Some(course) = &course {
+        return course_experiment(&a, &settings, &mut robot, course);
+    }
     if a.tracking || a.push.is_some() {
         return experiment(&a, &settings, &mut robot);
     }
@@ -179,6 +193,23 @@ fn experiment(a: &SimRobotArgs, settings: &EvalSettings, robot: &mut SimRobot) -
     let compare = in_process::<Vec<TrackingRow>>(&a.compare, "tracking.json of `topa eval tracking`")?;
     let rows = topa_sim_robot::experiments::run(robot, &mut op, &p)?;
     finish(a, robot, WireResults::Tracking { rows: &rows, in_process: compare.as_deref() })
+}
+
+/// `--course` through the controller: one run per top speed, the page printed and written with its JSON.
+fn course_experiment(
+    a: &SimRobotArgs,
+    settings: &EvalSettings,
+    robot: &mut SimRobot,
+    course: &topa_env::course::Course,
+) -> Result<()> {
+    let mut op = Operator::bind(a.operator_listen, a.operator)?;
+    let compare = in_process::<CourseResult>(&a.compare, "course.json of `topa eval course`")?;
+    let limit_s = topa_eval::course::time_limit_s(course, &a.speeds);
+    let mut runs = Vec::new();
+    for &speed in &a.speeds {
+        runs.push(topa_sim_robot::experiments::course(robot, &mut op, settings.settle_s, course, speed, limit_s)?);
+    }
+    finish(a, robot, WireResults::Course { course: &course.name, runs: &runs, in_process: compare.as_ref() })
 }
 
 fn finish(a: &SimRobotArgs, robot: &SimRobot, results: WireResults) -> Result<()> {

@@ -39,7 +39,8 @@ pub(crate) struct SimRobotArgs {
     /// Seed of the simulation's and the network's draws.
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
-    /// Stop after this long, s (default: run until interrupted; ignored by --tracking, which takes its own time).
+    /// Stop after this long, s (default: run until interrupted; ignored by the experiments, which take their own
+    /// time).
     #[arg(long, value_parser = crate::cli::values::positive)]
     pub(crate) seconds: Option<f64>,
     /// Run the tracking experiment through the controller, acting as its operator: the six commands, one run each.
@@ -49,10 +50,17 @@ pub(crate) struct SimRobotArgs {
     /// +y, −y, one run each (the cells of `topa eval push`'s grid on its axes).
     #[arg(long, value_delimiter = ',', conflicts_with = "tracking")]
     pub(crate) push: Option<Vec<f64>>,
+    /// Drive this course through the controller, acting as its operator (as `topa eval course` does): one run per
+    /// top speed of --speeds.
+    #[arg(long, conflicts_with_all = ["tracking", "push"])]
+    pub(crate) course: Option<PathBuf>,
+    /// Top speeds of --course, m/s (within the policy's forward command range).
+    #[arg(long, value_delimiter = ',', default_value = "0.7", requires = "course")]
+    pub(crate) speeds: Vec<f64>,
     /// Seconds per command of --tracking (after settling), or per push.
     #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 10.0)]
     pub(crate) window: f64,
-    /// The operator's socket of --tracking and --push.
+    /// The operator's socket of --tracking, --push and --course.
     #[arg(long, default_value = "127.0.0.1:7703")]
     pub(crate) operator_listen: SocketAddr,
     /// The controller's operator socket (its --operator-listen).
@@ -61,8 +69,8 @@ pub(crate) struct SimRobotArgs {
     /// Write the results and the wire's counters as JSON here, and the Markdown page beside it (.md).
     #[arg(long)]
     pub(crate) out: Option<PathBuf>,
-    /// The in-process result to set beside (the tracking.json of `topa eval tracking`, or the push.json of `topa
-    /// eval push`, on the same policy and sim2sim mode).
+    /// The in-process result to set beside (the tracking.json of `topa eval tracking`, the push.json of `topa eval
+    /// push`, or the course.json of `topa eval course`, on the same policy and sim2sim mode).
     #[arg(long)]
     pub(crate) compare: Option<PathBuf>,
 }

@@ -107,8 +107,10 @@ impl CourseResult {
     }
 }
 
-/// Per-env bookkeeping of a run.
-struct Follower {
+/// The bookkeeping of one run over a course: the operator's command, progress, interventions and where to put
+/// the robot back, joint-limit hits. `run` drives one per env; `topa sim-robot --course` drives one through the
+/// controller on the wire.
+pub struct CourseFollower {
     driver: Driver,
     run: CourseRun,
     progress: f64,
@@ -140,9 +142,7 @@ pub fn run(
     let drivers = speeds.iter().map(|&v| Driver::new(v, &ranges)).collect::<Result<Vec<_>>>()?;
     let (model, friction) = course.compile(runner.robot())?;
     let friction = std::sync::Arc::new(friction);
-    let walls: HashSet<usize> = (0..model.ngeom())
-        .filter(|&g| model.name_of(ObjType::Geom, g).is_some_and(|n| n.starts_with(WALL_PREFIX)))
-        .collect();
+    let walls = wall_geoms(&model);
     let mut batch = topa_env::vec_env::robot_batch_on(model, &cfg, speeds.len(), s.seed, s.threads)?;
     batch.reset()?;
     let start = course.start();
@@ -153,37 +153,11 @@ pub fn run(
         task.set_command_override(Some([0.0; 3]));
     }
     let n_motors = runner.robot().n_motors();
-    let mut followers: Vec<Follower> = drivers
-        .into_iter()
-        .map(|driver| Follower {
-            driver,
-            run: CourseRun {
-                top_speed: driver.top_speed,
-                finished: false,
-                time_s: 0.0,
-                falls: 0,
-                wall_contacts: 0,
-                stuck: 0,
-                joint_limit_hits_per_min: 0.0,
-                mean_off_path_m: 0.0,
-                max_off_path_m: 0.0,
-                progress_m: 0.0,
-                trajectory: Vec::new(),
-                intervention_at: Vec::new(),
-            },
-            progress: 0.0,
-            progress_mark: 0.0,
-            last_progress_t: 0.0,
-            off_path_sum: 0.0,
-            steps: 0,
-            limits: LimitCounter::new(n_motors),
-            done: false,
-        })
-        .collect();
+    let mut followers: Vec<CourseFollower> =
+        drivers.into_iter().map(|driver| CourseFollower::new(driver, n_motors)).collect();
     let dt = cfg.policy_dt();
     let settle = (SETTLE_S / dt).round() as usize;
-    let slowest = speeds.iter().cloned().fold(f64::INFINITY, f64::min);
-    let limit_s = 4.0 * course.path.length() / slowest + 120.0;
+    let limit_s = time_limit_s(course, speeds);
     let mut actions = Vec::new();
     let mut k = 0usize;
     while followers.iter().any(|f| !f.done) {
@@ -191,9 +165,7 @@ pub fn run(
         if k >= settle {
             for (i, f) in followers.iter_mut().enumerate().filter(|(_, f)| !f.done) {
                 let task = &mut batch.tasks_mut()[i];
-                let st = task.robot_state();
-                let xy = [st.base_pos[0], st.base_pos[1]];
-                let c = f.driver.command(course, f.progress, xy, st.yaw);
+                let c = f.command(course, task);
                 task.set_command_override(Some(c));
             }
         }
@@ -223,13 +195,69 @@ pub fn run(
     Ok(CourseResult {
         course: course.name.clone(),
         length_m: course.path.length(),
-        runs: followers.into_iter().map(|f| f.run).collect(),
+        runs: followers.into_iter().map(CourseFollower::into_run).collect(),
     })
 }
 
-impl Follower {
-    /// Bookkeeping after a step at time `t`; the pose to put the robot back at when an intervention is due.
-    fn observe(&mut self, course: &Course, task: &RobotEnv, walls: &HashSet<usize>, t: f64) -> Option<[f64; 3]> {
+/// The course's wall geoms in `model` (a touch is an intervention).
+pub fn wall_geoms(model: &mujoco::Model) -> HashSet<usize> {
+    (0..model.ngeom())
+        .filter(|&g| model.name_of(ObjType::Geom, g).is_some_and(|n| n.starts_with(WALL_PREFIX)))
+        .collect()
+}
+
+/// A run's time limit: four times the course at the slowest of `speeds`, plus two minutes, s.
+pub fn time_limit_s(course: &Course, speeds: &[f64]) -> f64 {
+    let slowest = speeds.iter().cloned().fold(f64::INFINITY, f64::min);
+    4.0 * course.path.length() / slowest + 120.0
+}
+
+impl CourseFollower {
+    pub fn new(driver: Driver, n_motors: usize) -> Self {
+        CourseFollower {
+            driver,
+            run: CourseRun {
+                top_speed: driver.top_speed,
+                finished: false,
+                time_s: 0.0,
+                falls: 0,
+                wall_contacts: 0,
+                stuck: 0,
+                joint_limit_hits_per_min: 0.0,
+                mean_off_path_m: 0.0,
+                max_off_path_m: 0.0,
+                progress_m: 0.0,
+                trajectory: Vec::new(),
+                intervention_at: Vec::new(),
+            },
+            progress: 0.0,
+            progress_mark: 0.0,
+            last_progress_t: 0.0,
+            off_path_sum: 0.0,
+            steps: 0,
+            limits: LimitCounter::new(n_motors),
+            done: false,
+        }
+    }
+
+    /// The operator's velocity command for the robot in `task` now.
+    pub fn command(&self, course: &Course, task: &RobotEnv) -> [f64; 3] {
+        let st = task.robot_state();
+        self.driver.command(course, self.progress, [st.base_pos[0], st.base_pos[1]], st.yaw)
+    }
+
+    /// Whether the run reached the goal or its time limit.
+    pub fn done(&self) -> bool {
+        self.done
+    }
+
+    pub fn into_run(self) -> CourseRun {
+        self.run
+    }
+
+    /// Bookkeeping after a step at time `t` (s since the clock started; a control period of the policy's each
+    /// call); the pose to put the robot back at when an intervention is due.
+    pub fn observe(&mut self, course: &Course, task: &RobotEnv, walls: &HashSet<usize>, t: f64) -> Option<[f64; 3]> {
         let st = task.robot_state();
         let xy = [st.base_pos[0], st.base_pos[1]];
         let (near, off) = course.path.project(xy, self.progress - 1.0, self.progress + 2.0);
@@ -278,7 +306,8 @@ impl Follower {
         Some([back.xy[0], back.xy[1], back.heading])
     }
 
-    fn finish(&mut self, t: f64, reached: bool) {
+    /// Ends the run at time `t`, at the goal or not.
+    pub fn finish(&mut self, t: f64, reached: bool) {
         self.done = true;
         self.run.finished = reached;
         self.run.time_s = t;

@@ -1,4 +1,4 @@
-//! The tracking and push experiments through the two processes: the evaluation is the operator. For each run it
+//! The tracking, push and course experiments through the two processes: the evaluation is the operator. For each run it
 //! puts the robot back on its gantry at the stand pose, asks the controller (over its operator socket) to restart
 //! from a soft start, waits for the policy to take over, settles on a zero command, then gives the command (or
 //! pushes the torso) for the window — measuring what the in-process experiments measure (`topa_eval::tracking`,
@@ -9,6 +9,9 @@ use std::net::SocketAddr;
 use topa_control::operator::OperatorMessage;
 use topa_control::transport::Link;
 use topa_control::{wire, Mode};
+use topa_env::course::Course;
+use topa_eval::course::{wall_geoms, CourseFollower, CourseRun};
+use topa_eval::driver::Driver;
 use topa_eval::gait::GaitAccumulator;
 use topa_eval::results::{TrackingRow, COMMANDS};
 use topa_eval::tracking::{combine, StartResult, TrackingAccumulator};
@@ -63,10 +66,7 @@ fn episode(
     torso_force: [f64; 2],
     mut observe: impl FnMut(&SimRobot, f64, bool),
 ) -> Result<Option<f64>> {
-    robot.reset()?;
-    let restart = OperatorMessage { command: [0.0; 3], stop: true, reset: true, start: true };
-    op.send(&restart);
-    let t_policy = wait_for_policy(robot, op, &restart)?;
+    let t_policy = restart(robot, op)?;
     let mut fell_at = None;
     let mut started = false;
     loop {
@@ -137,6 +137,69 @@ pub fn push(robot: &mut SimRobot, op: &mut Operator, p: &Protocol, forces: &[[f6
         out.push(fell);
     }
     Ok(out)
+}
+
+/// One run over `course` at `top_speed` through the controller, the operator steering as `topa eval course`'s
+/// does (a command each control period over the operator socket). An intervention puts the robot back on its
+/// gantry behind its furthest progress and restarts the controller; the clock runs only while the policy walks
+/// (after `settle_s` on a zero command), since the in-process course puts the robot back standing at once.
+pub fn course(
+    robot: &mut SimRobot,
+    op: &mut Operator,
+    settle_s: f64,
+    course: &Course,
+    top_speed: f64,
+    limit_s: f64,
+) -> Result<CourseRun> {
+    let driver = Driver::new(top_speed, &robot.env().config().commands)?;
+    let walls = wall_geoms(robot.env().data().model());
+    let mut follower = CourseFollower::new(driver, robot.env().indices().n_motors);
+    let dt = robot.control_period_s();
+    let start = course.start();
+    robot.set_home(Some([start.xy[0], start.xy[1], start.heading]));
+    let mut t = 0.0;
+    'put_back: loop {
+        let t_policy = restart(robot, op)?;
+        while robot.env().time() - t_policy < settle_s {
+            robot.step()?;
+        }
+        loop {
+            if !robot.step()? {
+                continue;
+            }
+            let command = follower.command(course, robot.env());
+            op.send(&OperatorMessage { command, ..Default::default() });
+            t += dt;
+            if let Some(back) = follower.observe(course, robot.env(), &walls, t) {
+                log::info!("course at {top_speed} m/s: intervention at t = {t:.1} s; put back at {back:?}");
+                robot.set_home(Some(back));
+                continue 'put_back;
+            }
+            if t >= limit_s && !follower.done() {
+                follower.finish(t, false);
+            }
+            if follower.done() {
+                break 'put_back;
+            }
+        }
+    }
+    let run = follower.into_run();
+    log::info!(
+        "course at {top_speed} m/s: {} in {:.1} s, {} interventions",
+        if run.finished { "reached the goal" } else { "did not reach the goal" },
+        run.time_s,
+        run.interventions()
+    );
+    Ok(run)
+}
+
+/// The robot back on its gantry and the controller restarted (stop, reset, start on a zero command): steps
+/// until its policy took over; returns the simulated time at which it did.
+fn restart(robot: &mut SimRobot, op: &mut Operator) -> Result<f64> {
+    robot.reset()?;
+    let restart = OperatorMessage { command: [0.0; 3], stop: true, reset: true, start: true };
+    op.send(&restart);
+    wait_for_policy(robot, op, &restart)
 }
 
 /// Steps the held robot until the controller's soft start lowered it and its policy took over; returns the

@@ -1,6 +1,7 @@
-//! The tracking experiment through the wire beside the same experiment in process: one Markdown table, written
+//! An experiment through the wire (tracking, pushes, the course) beside the same experiment in process: one Markdown table, written
 //! with the run's JSON.
 
+use topa_eval::course::{minutes, CourseResult, CourseRun};
 use topa_eval::results::{PushGrid, TrackingRow};
 
 use crate::robot::Counters;
@@ -23,6 +24,21 @@ pub struct WireRun<'a> {
 pub enum WireResults<'a> {
     Tracking { rows: &'a [TrackingRow], in_process: Option<&'a [TrackingRow]> },
     Push { forces: &'a [[f64; 2]], fell_at: &'a [Option<f64>], window_s: f64, in_process: Option<&'a PushGrid> },
+    Course { course: &'a str, runs: &'a [CourseRun], in_process: Option<&'a CourseResult> },
+}
+
+/// A course run's cells: reached the goal, time, interventions (falls / walls / stuck), joint-limit hits.
+fn course_cells(r: &CourseRun) -> String {
+    format!(
+        "{} | {} | {} ({} / {} / {}) | {:.1}",
+        if r.finished { "yes" } else { "no" },
+        minutes(r.time_s),
+        r.interventions(),
+        r.falls,
+        r.wall_contacts,
+        r.stuck,
+        r.joint_limit_hits_per_min
+    )
 }
 
 fn mae(r: &TrackingRow) -> String {
@@ -38,6 +54,7 @@ pub fn markdown(run: &WireRun) -> String {
     let what = match run.results {
         WireResults::Tracking { .. } => "Tracking",
         WireResults::Push { .. } => "Pushes",
+        WireResults::Course { .. } => "The course",
     };
     let mut s = format!(
         "# {what} through the wire\n\n`{}`, {} sim2sim; `topa control` and `topa sim-robot` as two processes on \
@@ -71,6 +88,20 @@ pub fn markdown(run: &WireRun) -> String {
                     Some(t((tf < g.window_s).then_some(tf)))
                 });
                 s += &format!("| ({}, {}) | {} | {} |\n", f[0], f[1], p.unwrap_or("—".into()), t(*fell));
+            }
+        }
+        WireResults::Course { course, runs, in_process } => {
+            s += &format!(
+                "Course `{course}`; through the wire, the clock stops while the robot is put back and soft-started.\n\n\
+                 | top speed (m/s) | in process: goal | time | interventions (falls / walls / stuck) | joint-limit \
+                 hits/min | through the wire: goal | time | interventions | joint-limit hits/min |\n\
+                 |---:|---|---:|---|---:|---|---:|---|---:|\n"
+            );
+            for r in runs.iter() {
+                let p = in_process
+                    .and_then(|c| c.runs.iter().find(|p| (p.top_speed - r.top_speed).abs() < 1e-9))
+                    .map_or("— | — | — | —".to_string(), course_cells);
+                s += &format!("| {:.2} | {p} | {} |\n", r.top_speed, course_cells(r));
             }
         }
     }

@@ -7,12 +7,14 @@
 
 use std::net::SocketAddr;
 use std::path::Path;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use topa_control::driver::Readings;
 use topa_control::netem::{Impairment, Netem};
 use topa_control::transport::Link;
 use topa_control::{wire, Mode, MotorCommand};
+use topa_env::course::Course;
 use topa_env::policy_runner::PolicyRunner;
 use topa_env::task::Task;
 use topa_env::vec_env::BatchEnv;
@@ -80,6 +82,8 @@ pub struct SimRobot {
     /// The drives' own damping (the MJCF's), N·m·s/rad: what the watchdog applies.
     damping_kd: Vec<f64>,
     held: bool,
+    /// Where a reset puts the robot (x, y, yaw; None: the env's own start).
+    home: Option<[f64; 3]>,
     watchdog_s: f64,
     last_command_wall: Option<f64>,
     silent: bool,
@@ -120,6 +124,7 @@ impl SimRobot {
             drives: Drives { target: vec![0.0; n], kp: vec![0.0; n], kd: vec![0.0; n], mode: None, applied_seq: None },
             damping_kd,
             held: true,
+            home: None,
             watchdog_s: cfg.watchdog_s.unwrap_or(5.0 * dt * decimation as f64),
             last_command_wall: None,
             silent: false,
@@ -144,6 +149,32 @@ impl SimRobot {
         let runner = PolicyRunner::load(policy, "robot")?;
         let env = settings.env_config(&runner)?;
         SimRobot::new(topa_env::vec_env::robot_batch(&env, 1, settings.seed, 1)?, cfg)
+    }
+
+    /// The robot on `course`'s floors and walls at its start (falls are the course's interventions, so episodes
+    /// do not end on them), for the policy `policy`, in `settings`' sim2sim mode.
+    pub fn on_course(
+        policy: &Path,
+        course: &Course,
+        settings: &EvalSettings,
+        cfg: &SimRobotConfig,
+    ) -> Result<SimRobot> {
+        let runner = PolicyRunner::load(policy, "robot")?;
+        let mut env = settings.env_config(&runner)?;
+        env.termination.enabled = false;
+        let (model, friction) = course.compile(runner.robot())?;
+        let mut batch = topa_env::vec_env::robot_batch_on(model, &env, 1, settings.seed, 1)?;
+        batch.tasks_mut()[0].set_ground_friction(Some(Arc::new(friction)));
+        let mut robot = SimRobot::new(batch, cfg)?;
+        let start = course.start();
+        robot.set_home(Some([start.xy[0], start.xy[1], start.heading]));
+        robot.reset()?;
+        Ok(robot)
+    }
+
+    /// Where the next reset puts the robot: (x, y, yaw) on the ground, or None for the env's own start.
+    pub fn set_home(&mut self, pose: Option<[f64; 3]>) {
+        self.home = pose;
     }
 
     pub fn local_addr(&self) -> std::io::Result<SocketAddr> {
@@ -172,10 +203,13 @@ impl SimRobot {
         self.dt * self.decimation as f64
     }
 
-    /// The robot back on its gantry at the stand pose, drives passive.
+    /// The robot back on its gantry at the stand pose (at its home, if one is set), drives passive.
     pub fn reset(&mut self) -> Result<()> {
-        let Self { batch, obs, .. } = self;
-        batch.tasks_mut()[0].reset(obs)?;
+        let Self { batch, obs, home, .. } = self;
+        match *home {
+            Some(pose) => batch.tasks_mut()[0].reset_at(obs, pose)?,
+            None => batch.tasks_mut()[0].reset(obs)?,
+        }
         self.held = true;
         self.drives.mode = None;
         self.drives.kp.iter_mut().for_each(|k| *k = 0.0);
