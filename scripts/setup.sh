@@ -14,6 +14,9 @@ command -v python3 >/dev/null 2>&1 || need_pkgs+=(python3)
 python3 -c 'import ensurepip' >/dev/null 2>&1 || need_pkgs+=(python3-venv)
 # protoc: the TensorBoard event writer (crate tboard) compiles its protobuf schema at build time.
 command -v protoc >/dev/null 2>&1 || need_pkgs+=(protobuf-compiler)
+# The operator's gamepad (gilrs): libudev, found through pkg-config.
+command -v pkg-config >/dev/null 2>&1 || need_pkgs+=(pkg-config)
+pkg-config --exists libudev 2>/dev/null || need_pkgs+=(libudev-dev)
 # Headless rendering: libEGL (glvnd), Mesa's EGL vendor library and its software (llvmpipe) driver.
 ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1 ' || need_pkgs+=(libegl1)
 ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0 ' || need_pkgs+=(libegl-mesa0)

@@ -1,6 +1,7 @@
 //! `topa`: the TopA closed-chain biped toolkit — model info, benchmarks, training and sim2sim evaluation. This
 //! crate is the command line only (the clap tree and its dispatch); the work lives in the library crates.
 
+mod carriage;
 mod cli;
 mod eval_cmd;
 mod groups_cmd;

@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use topa_control::driver::Driver;
 use topa_control::netem::Impairment;
-use topa_control::remote::{serve, OperatorLink, UdpRobot};
+use topa_control::remote::{serve, OperatorLink, RemoteRobot};
 use topa_control::Controller;
 use topa_eval::course::CourseResult;
 use topa_eval::results::{PushGrid, TrackingRow};
@@ -17,6 +17,7 @@ use topa_sim_robot::experiments::{Operator, Protocol};
 use topa_sim_robot::report::{WireResults, WireRun};
 use topa_sim_robot::{SimRobot, SimRobotConfig};
 
+use crate::carriage::{names, Carriage};
 use crate::cli::wire::{ControlArgs, SimRobotArgs};
 
 pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
@@ -38,9 +39,11 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
         ),
         None => None,
     };
+    let carriage = Carriage::open(&a.carriage, a.listen, a.controller)?;
+    let link = carriage.link(names::SENSORS, Some(names::COMMAND), a.listen, a.controller)?;
     let mut robot = match &course {
-        Some(course) => SimRobot::on_course(&a.policy, course, &settings, &rc)?,
-        None => SimRobot::for_policy(&a.policy, &settings, &rc)?,
+        Some(course) => SimRobot::on_course(&a.policy, course, &settings, &rc, link)?,
+        None => SimRobot::for_policy(&a.policy, &settings, &rc, link)?,
     };
     let (physics_dt, period_s) = (robot.env().config().timestep, robot.control_period_s());
     eprintln!(
@@ -52,10 +55,12 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
         a.controller
     );
     if let Some(course) = &course {
-        return course_experiment(&a, &settings, &mut robot, course);
+        let op = Operator::over(carriage.link(names::OPERATOR, None, a.operator_listen, a.operator)?);
+        return course_experiment(&a, &settings, &mut robot, course, op);
     }
     if a.tracking || a.push.is_some() {
-        return experiment(&a, &settings, &mut robot);
+        let op = Operator::over(carriage.link(names::OPERATOR, None, a.operator_listen, a.operator)?);
+        return experiment(&a, &settings, &mut robot, op);
     }
     let t0 = Instant::now();
     let mut last_report = 0.0;
@@ -86,9 +91,15 @@ pub(crate) fn control(a: ControlArgs) -> Result<()> {
     anyhow::ensure!(a.command.len() == 3, "--command takes three values, v_x,v_y,w_z (e.g. 0.5,0,0)");
     let mut c = Controller::load(&a.controller)?;
     let (n, period) = (c.spec().n_motors(), c.spec().control_period_s);
-    let mut robot = UdpRobot::bind(a.listen, a.robot, c.spec()).with_context(|| format!("binding {}", a.listen))?;
-    let mut operator =
-        OperatorLink::bind(a.operator_listen, a.operator).with_context(|| format!("binding {}", a.operator_listen))?;
+    let carriage = Carriage::open(&a.carriage, a.listen, a.robot)?;
+    let mut robot =
+        RemoteRobot::over(carriage.link(names::COMMAND, Some(names::SENSORS), a.listen, a.robot)?, c.spec());
+    let mut operator = OperatorLink::over(carriage.link(
+        names::OPERATOR_REPLY,
+        Some(names::OPERATOR),
+        a.operator_listen,
+        a.operator,
+    )?);
     c.set_command([a.command[0], a.command[1], a.command[2]]);
     if a.start {
         c.start();
@@ -106,6 +117,14 @@ pub(crate) fn control(a: ControlArgs) -> Result<()> {
         let rx = topa_tools::operator_keys::spawn();
         anyhow::ensure!(rx.is_some(), "--keyboard needs a terminal");
         eprintln!("{}", topa_tools::operator_keys::HELP);
+        rx
+    } else {
+        None
+    };
+    let pad = if a.gamepad {
+        let rx = topa_tools::operator_pad::spawn(c.spec().command_ranges);
+        anyhow::ensure!(rx.is_some(), "--gamepad: this system offers no gamepad interface (see the warning above)");
+        eprintln!("{}", topa_tools::operator_pad::HELP);
         rx
     } else {
         None
@@ -128,6 +147,12 @@ pub(crate) fn control(a: ControlArgs) -> Result<()> {
                         break;
                     }
                 }
+            }
+        }
+        if let Some(rx) = &pad {
+            // The pad's thread runs as long as the process: its queue never closes.
+            while let Ok(m) = rx.try_recv() {
+                m.apply(c);
             }
         }
         let t = t0.elapsed().as_secs_f64();
@@ -174,8 +199,7 @@ fn in_process<T: serde::de::DeserializeOwned>(path: &Option<std::path::PathBuf>,
 }
 
 /// `--tracking` or `--push` through the controller, the page printed and written with its JSON.
-fn experiment(a: &SimRobotArgs, settings: &EvalSettings, robot: &mut SimRobot) -> Result<()> {
-    let mut op = Operator::bind(a.operator_listen, a.operator)?;
+fn experiment(a: &SimRobotArgs, settings: &EvalSettings, robot: &mut SimRobot, mut op: Operator) -> Result<()> {
     let p = Protocol { settle_s: settings.settle_s, window_s: a.window, transient_s: 2.0 };
     if let Some(magnitudes) = &a.push {
         anyhow::ensure!(
@@ -201,8 +225,8 @@ fn course_experiment(
     settings: &EvalSettings,
     robot: &mut SimRobot,
     course: &topa_env::course::Course,
+    mut op: Operator,
 ) -> Result<()> {
-    let mut op = Operator::bind(a.operator_listen, a.operator)?;
     let compare = in_process::<CourseResult>(&a.compare, "course.json of `topa eval course`")?;
     let limit_s = topa_eval::course::time_limit_s(course, &a.speeds);
     let mut runs = Vec::new();
@@ -217,6 +241,7 @@ fn finish(a: &SimRobotArgs, robot: &SimRobot, results: WireResults) -> Result<()
     let run = WireRun {
         policy: &policy,
         sim2sim: a.sim2sim.to_string(),
+        carrier: if a.carriage.zenoh { "Zenoh (peers on loopback TCP)" } else { "loopback UDP" },
         loss: a.loss,
         latency_ms: a.latency_ms,
         jitter_ms: a.jitter_ms,

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use topa_control::driver::Readings;
 use topa_control::netem::Impairment;
-use topa_control::remote::{serve, UdpRobot};
+use topa_control::remote::{serve, RemoteRobot};
 use topa_control::{wire, Controller, Fault, Mode};
 use topa_eval::settings::{EvalSettings, Sim2SimMode};
 use topa_sim_robot::experiments::{Operator, Protocol};
@@ -46,9 +46,17 @@ impl Ports {
 
 /// `topa control` in its own process.
 fn spawn_control(dir: &Path, p: &Ports, start: bool) -> Child {
+    spawn_control_over(dir, p, start, None)
+}
+
+/// `topa control` in its own process, over Zenoh under `zenoh_prefix` where one is given.
+fn spawn_control_over(dir: &Path, p: &Ports, start: bool, zenoh_prefix: Option<&str>) -> Child {
     let a = |s: SocketAddr| s.to_string();
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_topa"));
     cmd.args(["control", "--controller"]).arg(dir);
+    if let Some(prefix) = zenoh_prefix {
+        cmd.args(["--zenoh", "--zenoh-prefix", prefix]);
+    }
     cmd.args(["--listen", &a(p.controller), "--robot", &a(p.robot)]);
     cmd.args(["--operator-listen", &a(p.operator_in), "--operator", &a(p.operator), "--seconds", "300"]);
     if start {
@@ -58,6 +66,11 @@ fn spawn_control(dir: &Path, p: &Ports, start: bool) -> Child {
 }
 
 fn robot(p: &Ports, impairment: Impairment) -> SimRobot {
+    let link = topa_control::transport::Link::bind(p.robot, p.controller).unwrap();
+    robot_over(p, impairment, link)
+}
+
+fn robot_over(p: &Ports, impairment: Impairment, link: topa_control::transport::Link) -> SimRobot {
     let settings = EvalSettings::default().with_sim2sim(&Sim2SimMode::Realistic).unwrap();
     let cfg = SimRobotConfig {
         listen: p.robot,
@@ -67,7 +80,7 @@ fn robot(p: &Ports, impairment: Impairment) -> SimRobot {
         seed: 3,
         frame_hz: None,
     };
-    SimRobot::for_policy(Path::new(POLICY), &settings, &cfg).unwrap()
+    SimRobot::for_policy(Path::new(POLICY), &settings, &cfg, link).unwrap()
 }
 
 fn export(tag: &str) -> PathBuf {
@@ -79,11 +92,23 @@ fn export(tag: &str) -> PathBuf {
 /// The six commands through the two processes; returns the worst MAE and whether any run fell — or None when a
 /// run fell while the machine stalled the simulation (reported: that measures the machine, not the network).
 fn tracking(tag: &str, impairment: Impairment) -> Option<(f64, bool, topa_sim_robot::robot::Counters)> {
-    let dir = export(tag);
     let p = Ports::new();
-    let mut r = robot(&p, impairment);
-    let mut child = spawn_control(&dir, &p, false);
-    let mut op = Operator::bind(p.operator, p.operator_in).unwrap();
+    let r = robot(&p, impairment);
+    let op = Operator::bind(p.operator, p.operator_in).unwrap();
+    tracking_with(tag, &p, r, op, None)
+}
+
+/// As `tracking`, with the robot and operator given (their links made), the controller over Zenoh where a prefix
+/// is given.
+fn tracking_with(
+    tag: &str,
+    p: &Ports,
+    mut r: SimRobot,
+    mut op: Operator,
+    zenoh_prefix: Option<&str>,
+) -> Option<(f64, bool, topa_sim_robot::robot::Counters)> {
+    let dir = export(tag);
+    let mut child = spawn_control_over(&dir, p, false, zenoh_prefix);
     let protocol = Protocol { settle_s: 1.0, window_s: 4.0, transient_s: 2.0 };
     let rows = topa_sim_robot::experiments::run(&mut r, &mut op, &protocol);
     child.kill().ok();
@@ -125,6 +150,26 @@ fn through_two_processes_the_robot_walks_the_six_commands_and_survives_a_lossy_n
     let sent = c.frames_sent as f64;
     assert!((c.lost_to_controller as f64 / sent - 0.05).abs() < 0.02, "the network lost what was asked: {c:?}");
     assert!(c.lost_from_controller > 0, "commands are lost too: {c:?}");
+}
+
+/// The same through Zenoh (a build with `--features zenoh`): the wire's datagrams as samples between two peers.
+#[cfg(feature = "zenoh")]
+#[test]
+fn over_zenoh_the_robot_walks_the_six_commands() {
+    use topa_control::transport::Link;
+    use topa_control::zenoh_carrier::ZenohSession;
+    let _turn = REAL_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let p = Ports::new();
+    let prefix = format!("topa-test-{}", std::process::id());
+    let session = ZenohSession::open(&[format!("tcp/{}", p.robot)], &[format!("tcp/{}", p.controller)]).unwrap();
+    let key = |k: &str| format!("{prefix}/{k}");
+    let link = Link::zenoh(session.carrier(key("sensors"), Some(key("command"))).unwrap());
+    let r = robot_over(&p, Impairment::default(), link);
+    let op = Operator::over(Link::zenoh(session.carrier(key("operator"), None).unwrap()));
+    let Some((worst, fell, c)) = tracking_with("zenoh", &p, r, op, Some(&prefix)) else { return };
+    assert!(!fell, "a run fell over Zenoh: {c:?}");
+    assert!(worst < 0.15, "worst MAE {worst} over Zenoh");
+    assert_eq!(c.commands_refused, 0);
 }
 
 /// The controller killed: the simulated robot's drives damp on their own watchdog (five control periods) and
@@ -169,7 +214,7 @@ fn a_silent_robot_is_damped_by_the_controller_within_three_periods() {
     let n = c.spec().n_motors();
     let period = c.spec().control_period_s;
     let (robot_addr, ctl_addr) = (free_addr(), free_addr());
-    let mut driver = UdpRobot::bind(ctl_addr, robot_addr, c.spec()).unwrap();
+    let mut driver = RemoteRobot::bind(ctl_addr, robot_addr, c.spec()).unwrap();
     let robot_id = wire::robot_id(c.spec().motors.iter().map(|m| m.name.as_str()));
     let sender = UdpSocket::bind(robot_addr).unwrap();
     // The robot sends 50 frames at the control rate from another thread, then stops.

@@ -6,6 +6,18 @@ use std::path::PathBuf;
 use clap::Args;
 use topa_eval::settings::Sim2SimMode;
 
+/// Which transport carries the wire.
+#[derive(Args, Clone)]
+pub(crate) struct CarriageArgs {
+    /// Carry the wire over Zenoh instead of UDP (a build with `--features zenoh`): this side listens on
+    /// tcp/<--listen> and connects to the other's address; operator messages travel in the same session.
+    #[arg(long)]
+    pub(crate) zenoh: bool,
+    /// The key expressions' prefix over Zenoh: <prefix>/sensors, <prefix>/command, <prefix>/operator.
+    #[arg(long, default_value = "topa", requires = "zenoh")]
+    pub(crate) zenoh_prefix: String,
+}
+
 /// The simulated robot: MuJoCo in real time, the drives' PD and watchdog, sensor frames out, commands in.
 #[derive(Args)]
 pub(crate) struct SimRobotArgs {
@@ -21,6 +33,8 @@ pub(crate) struct SimRobotArgs {
     /// The controller's socket.
     #[arg(long, default_value = "127.0.0.1:7701")]
     pub(crate) controller: SocketAddr,
+    #[command(flatten)]
+    pub(crate) carriage: CarriageArgs,
     /// Share of datagrams lost, each direction (0–1).
     #[arg(long, value_parser = crate::cli::values::share, default_value_t = 0.0)]
     pub(crate) loss: f64,
@@ -87,6 +101,8 @@ pub(crate) struct ControlArgs {
     /// The robot's socket.
     #[arg(long, default_value = "127.0.0.1:7700")]
     pub(crate) robot: SocketAddr,
+    #[command(flatten)]
+    pub(crate) carriage: CarriageArgs,
     /// The socket operator messages come to (velocity command, stop, reset, start).
     #[arg(long, default_value = "127.0.0.1:7702")]
     pub(crate) operator_listen: SocketAddr,
@@ -105,6 +121,10 @@ pub(crate) struct ControlArgs {
     /// Drive from the terminal's keys (w/s a/d q/e steps, g start, space stop, r reset).
     #[arg(long)]
     pub(crate) keyboard: bool,
+    /// Drive from a gamepad (left stick v_x / v_y, right stick w_z, A start, B stop, Y reset); with --keyboard,
+    /// the newest of the two wins.
+    #[arg(long)]
+    pub(crate) gamepad: bool,
     /// Record what the controller saw and sent as MCAP (Foxglove): /sensors, /command, /operator.
     #[arg(long)]
     pub(crate) record: Option<PathBuf>,

@@ -9,7 +9,7 @@ pub enum Error {
     /// A controller spec that does not validate (the message names the key).
     #[error("{0}")]
     Invalid(String),
-    #[error("cannot read {path}: {source}")]
+    #[error("cannot read {path}")]
     Io { path: PathBuf, source: std::io::Error },
 }
 

@@ -36,6 +36,8 @@ pub mod remote;
 pub mod spec;
 pub mod transport;
 pub mod wire;
+#[cfg(feature = "zenoh")]
+pub mod zenoh_carrier;
 
 pub use controller::{Controller, Counters, Fault, Mode, MotorCommand, SensorFrame};
 pub use error::{Error, FrameRefused, Result};

@@ -1,5 +1,5 @@
 //! A robot on the wire (a real one's bridge, or `topa sim-robot`): the [`Driver`] that takes its sensor frames off
-//! a UDP socket and sends it motor commands, and the controller's loop around it — a tick every control period on
+//! a link (UDP, or Zenoh) and sends it motor commands, and the controller's loop around it — a tick every control period on
 //! its own clock with the newest frame (the watchdog when none came), an operator on its own socket.
 
 use std::net::SocketAddr;
@@ -18,7 +18,7 @@ pub const PEER_ID: u32 = 0x4354_524c; // "CTRL"
 
 /// The robot's socket pair as a driver. Frames are stamped with this side's clock on arrival: the two sides'
 /// clocks are not synchronised, and the state machine's timing (soft start, staleness) is this side's.
-pub struct UdpRobot {
+pub struct RemoteRobot {
     link: Link,
     robot: u32,
     n: usize,
@@ -31,15 +31,19 @@ pub struct UdpRobot {
     pub undecodable: u64,
 }
 
-impl UdpRobot {
+impl RemoteRobot {
     /// Binds `local` and talks to the robot at `robot`, the one `spec` was made for (frames of another robot are
     /// refused); the controller ticks every control period of the spec.
-    pub fn bind(local: SocketAddr, robot: SocketAddr, spec: &ControllerSpec) -> std::io::Result<UdpRobot> {
+    pub fn bind(local: SocketAddr, robot: SocketAddr, spec: &ControllerSpec) -> std::io::Result<RemoteRobot> {
+        Ok(RemoteRobot::over(Link::bind(local, robot)?, spec))
+    }
+
+    /// The robot at the other end of `link` (UDP or Zenoh), the one `spec` was made for.
+    pub fn over(mut link: Link, spec: &ControllerSpec) -> RemoteRobot {
         let (n_motors, period_s) = (spec.n_motors(), spec.control_period_s);
         let id = wire::robot_id(spec.motors.iter().map(|m| m.name.as_str()));
-        let mut link = Link::bind(local, robot)?;
         link.receiver.robot = Some(id);
-        Ok(UdpRobot {
+        RemoteRobot {
             link,
             robot: id,
             n: n_motors,
@@ -49,7 +53,7 @@ impl UdpRobot {
             buf: Vec::with_capacity(wire::size(wire::COMMAND, n_motors)),
             next_tick: None,
             undecodable: 0,
-        })
+        }
     }
 
     /// The socket, with its counters (accepted, refused, superseded, strangers).
@@ -58,7 +62,7 @@ impl UdpRobot {
     }
 }
 
-impl Driver for UdpRobot {
+impl Driver for RemoteRobot {
     fn now(&self) -> f64 {
         self.t0.elapsed().as_secs_f64()
     }
@@ -105,6 +109,11 @@ impl OperatorLink {
         Ok(OperatorLink { link: Link::bind(local, operator)? })
     }
 
+    /// Operator messages over `link` (UDP or Zenoh).
+    pub fn over(link: Link) -> OperatorLink {
+        OperatorLink { link }
+    }
+
     /// The newest operator message since the last call, if any.
     pub fn poll(&mut self) -> Option<OperatorMessage> {
         let d = self.link.poll(|d| wire::check(d, wire::OPERATOR, 0).map(|h| h.0)).ok()??;
@@ -120,7 +129,7 @@ impl OperatorLink {
 /// display, or read a keyboard).
 pub fn serve(
     c: &mut Controller,
-    robot: &mut UdpRobot,
+    robot: &mut RemoteRobot,
     mut operator: Option<&mut OperatorLink>,
     mut each: impl FnMut(&mut Controller, &Readings, &MotorCommand) -> ControlFlow<()>,
 ) {

@@ -1,6 +1,7 @@
-//! UDP carriage of the wire format: one socket per side, bound to the loopback interface unless an address is
-//! given. Receiving drains the socket and keeps the newest valid datagram of the expected kind — a flood costs
-//! the receiver one pass, never a backlog of stale frames — and counts what it dropped and refused.
+//! Carriage of the wire format: a UDP socket per side, bound to the loopback interface unless an address is given,
+//! or (cargo feature `zenoh`) a Zenoh publisher and subscriber. Receiving drains what waits and keeps the newest
+//! valid message of the expected kind — a flood costs the receiver one pass, never a backlog of stale frames — and
+//! counts what it dropped and refused.
 
 use std::io::ErrorKind;
 use std::net::{SocketAddr, UdpSocket};
@@ -10,16 +11,25 @@ use crate::wire::{self, Receiver, WireError};
 /// The largest datagram read (a sensor frame of 1 000 motors fits).
 const MAX_DATAGRAM: usize = 32 * 1024;
 
-/// One side's socket and its receiving state.
+/// What carries the datagrams.
+enum Carrier {
+    Udp {
+        socket: UdpSocket,
+        peer_addr: SocketAddr,
+    },
+    #[cfg(feature = "zenoh")]
+    Zenoh(crate::zenoh_carrier::ZenohCarrier),
+}
+
+/// One side's carrier and its receiving state.
 pub struct Link {
-    socket: UdpSocket,
-    peer_addr: SocketAddr,
+    carrier: Carrier,
     buf: Vec<u8>,
     newest: Vec<u8>,
     pub receiver: Receiver,
     /// Valid datagrams superseded by a newer one in the same drain.
     pub superseded: u64,
-    /// Datagrams from another address than the peer's.
+    /// Datagrams from another address than the peer's (UDP; Zenoh names no sender, the wire's peer id does).
     pub strangers: u64,
 }
 
@@ -28,55 +38,83 @@ impl Link {
     pub fn bind(local: SocketAddr, peer_addr: SocketAddr) -> std::io::Result<Link> {
         let socket = UdpSocket::bind(local)?;
         socket.set_nonblocking(true)?;
-        Ok(Link {
-            socket,
-            peer_addr,
+        Ok(Link::over(Carrier::Udp { socket, peer_addr }))
+    }
+
+    /// A link over Zenoh: publishing and subscribing as `carrier` does.
+    #[cfg(feature = "zenoh")]
+    pub fn zenoh(carrier: crate::zenoh_carrier::ZenohCarrier) -> Link {
+        Link::over(Carrier::Zenoh(carrier))
+    }
+
+    fn over(carrier: Carrier) -> Link {
+        Link {
+            carrier,
             buf: vec![0; MAX_DATAGRAM],
             newest: Vec::with_capacity(MAX_DATAGRAM),
             receiver: Receiver::default(),
             superseded: 0,
             strangers: 0,
-        })
+        }
     }
 
-    /// Talks to `peer_addr` from now on (e.g. once the other side's port is known).
+    /// Talks to `peer_addr` from now on (e.g. once the other side's port is known); UDP only.
     pub fn set_peer(&mut self, peer_addr: SocketAddr) {
-        self.peer_addr = peer_addr;
+        match &mut self.carrier {
+            Carrier::Udp { peer_addr: p, .. } => *p = peer_addr,
+            #[cfg(feature = "zenoh")]
+            Carrier::Zenoh(_) => {}
+        }
     }
 
+    /// The UDP socket's address (an error over Zenoh, which has no address of its own per link).
     pub fn local_addr(&self) -> std::io::Result<SocketAddr> {
-        self.socket.local_addr()
+        match &self.carrier {
+            Carrier::Udp { socket, .. } => socket.local_addr(),
+            #[cfg(feature = "zenoh")]
+            Carrier::Zenoh(_) => Err(std::io::Error::other("a Zenoh link has no socket address")),
+        }
     }
 
     pub fn send(&self, datagram: &[u8]) -> std::io::Result<()> {
-        self.socket.send_to(datagram, self.peer_addr).map(|_| ())
+        match &self.carrier {
+            Carrier::Udp { socket, peer_addr } => socket.send_to(datagram, peer_addr).map(|_| ()),
+            #[cfg(feature = "zenoh")]
+            Carrier::Zenoh(z) => z.send(datagram),
+        }
     }
 
-    /// Drains the socket; the newest admitted datagram (checked with `check`: kind, size, checksum) is returned,
+    /// Drains what waits; the newest admitted datagram (checked with `check`: kind, size, checksum) is returned,
     /// or None when nothing valid came. Every refusal is counted by the receiver.
     pub fn poll(&mut self, check: impl Fn(&[u8]) -> Result<wire::Header, WireError>) -> std::io::Result<Option<&[u8]>> {
         Ok(self.drain(&check)?.then_some(self.newest.as_slice()))
     }
 
+    /// The next waiting datagram's length in `buf` (None: nothing waits).
+    fn next(&mut self) -> std::io::Result<Option<usize>> {
+        match &self.carrier {
+            Carrier::Udp { socket, peer_addr } => loop {
+                match socket.recv_from(&mut self.buf) {
+                    Ok((_, from)) if from != *peer_addr => self.strangers += 1,
+                    Ok((len, _)) => return Ok(Some(len)),
+                    Err(e) if e.kind() == ErrorKind::WouldBlock => return Ok(None),
+                    Err(e) => return Err(e),
+                }
+            },
+            #[cfg(feature = "zenoh")]
+            Carrier::Zenoh(z) => z.try_recv(&mut self.buf),
+        }
+    }
+
     fn drain(&mut self, check: &impl Fn(&[u8]) -> Result<wire::Header, WireError>) -> std::io::Result<bool> {
         let mut got = false;
-        loop {
-            match self.socket.recv_from(&mut self.buf) {
-                Ok((len, from)) => {
-                    if from != self.peer_addr {
-                        self.strangers += 1;
-                        continue;
-                    }
-                    let d = &self.buf[..len];
-                    if self.receiver.admit(check(d)).is_ok() {
-                        self.superseded += u64::from(got);
-                        self.newest.clear();
-                        self.newest.extend_from_slice(d);
-                        got = true;
-                    }
-                }
-                Err(e) if e.kind() == ErrorKind::WouldBlock => break,
-                Err(e) => return Err(e),
+        while let Some(len) = self.next()? {
+            let d = &self.buf[..len];
+            if self.receiver.admit(check(d)).is_ok() {
+                self.superseded += u64::from(got);
+                self.newest.clear();
+                self.newest.extend_from_slice(d);
+                got = true;
             }
         }
         Ok(got)

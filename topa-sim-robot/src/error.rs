@@ -2,7 +2,9 @@
 
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    #[error("simulated robot: socket {addr}: {source} (is another `topa sim-robot` or `topa control` using it? give another address)")]
+    #[error(
+        "simulated robot: socket {addr} (is another `topa sim-robot` or `topa control` using it? give another address)"
+    )]
     Socket {
         addr: std::net::SocketAddr,
         #[source]

@@ -44,7 +44,12 @@ pub struct Operator {
 impl Operator {
     pub fn bind(local: SocketAddr, controller_operator: SocketAddr) -> Result<Operator> {
         let link = Link::bind(local, controller_operator).map_err(|source| Error::Socket { addr: local, source })?;
-        Ok(Operator { link, seq: 0, buf: Vec::new(), t0: std::time::Instant::now() })
+        Ok(Operator::over(link))
+    }
+
+    /// Operator messages over `link` (UDP or Zenoh).
+    pub fn over(link: Link) -> Operator {
+        Operator { link, seq: 0, buf: Vec::new(), t0: std::time::Instant::now() }
     }
 
     pub fn send(&mut self, m: &OperatorMessage) {

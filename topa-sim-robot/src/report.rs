@@ -11,6 +11,8 @@ use crate::robot::Counters;
 pub struct WireRun<'a> {
     pub policy: &'a str,
     pub sim2sim: String,
+    /// What carried the wire: "loopback UDP", "Zenoh".
+    pub carrier: &'a str,
     pub loss: f64,
     pub latency_ms: f64,
     pub jitter_ms: f64,
@@ -57,10 +59,11 @@ pub fn markdown(run: &WireRun) -> String {
         WireResults::Course { .. } => "The course",
     };
     let mut s = format!(
-        "# {what} through the wire\n\n`{}`, {} sim2sim; `topa control` and `topa sim-robot` as two processes on \
-         loopback UDP; network: {:.0} % loss, {} ms latency, {} ms jitter per datagram.\n\n",
+        "# {what} through the wire\n\n`{}`, {} sim2sim; `topa control` and `topa sim-robot` as two processes over \
+         {}; network: {:.0} % loss, {} ms latency, {} ms jitter per datagram.\n\n",
         run.policy,
         run.sim2sim,
+        run.carrier,
         run.loss * 100.0,
         run.latency_ms,
         run.jitter_ms

@@ -29,9 +29,9 @@ pub const PEER_ID: u32 = 0x5349_4d52; // "SIMR"
 /// Where the robot listens and whom it talks to, and the network between them.
 #[derive(Debug, Clone)]
 pub struct SimRobotConfig {
-    /// This side's socket (loopback unless an address is given).
+    /// This side's socket (loopback unless an address is given; UDP).
     pub listen: SocketAddr,
-    /// The controller's socket.
+    /// The controller's socket (UDP).
     pub controller: SocketAddr,
     /// Loss, latency and jitter on both directions.
     pub impairment: Impairment,
@@ -42,6 +42,13 @@ pub struct SimRobotConfig {
     pub seed: u64,
     /// Sensor frames per second (None: one per physics step, as drives report at their bus rate).
     pub frame_hz: Option<f64>,
+}
+
+impl SimRobotConfig {
+    /// The UDP socket on `listen`, sending to `controller`.
+    pub fn udp_link(&self) -> Result<Link> {
+        Link::bind(self.listen, self.controller).map_err(|source| Error::Socket { addr: self.listen, source })
+    }
 }
 
 /// What the robot counted: the wire, the watchdog, and how well it kept real time.
@@ -101,11 +108,10 @@ pub struct SimRobot {
 }
 
 impl SimRobot {
-    /// A robot from a one-env batch (its config says the physics and the realistic models), on its gantry.
-    pub fn new(batch: BatchEnv<RobotEnv>, cfg: &SimRobotConfig) -> Result<SimRobot> {
+    /// A robot from a one-env batch (its config says the physics and the realistic models), on its gantry, talking
+    /// over `link` (`cfg.udp_link()`, or a Zenoh link).
+    pub fn new(batch: BatchEnv<RobotEnv>, cfg: &SimRobotConfig, mut link: Link) -> Result<SimRobot> {
         cfg.impairment.validate()?;
-        let mut link =
-            Link::bind(cfg.listen, cfg.controller).map_err(|source| Error::Socket { addr: cfg.listen, source })?;
         let env = &batch.tasks()[0];
         // Commands from a controller made for another robot are refused (and counted).
         let robot_id = wire::robot_id(env.indices().spec.motors.iter().map(|m| m.actuator.as_str()));
@@ -145,10 +151,10 @@ impl SimRobot {
     }
 
     /// The robot the policy `policy` was trained for, with its physics, in `settings`' sim2sim mode.
-    pub fn for_policy(policy: &Path, settings: &EvalSettings, cfg: &SimRobotConfig) -> Result<SimRobot> {
+    pub fn for_policy(policy: &Path, settings: &EvalSettings, cfg: &SimRobotConfig, link: Link) -> Result<SimRobot> {
         let runner = PolicyRunner::load(policy, "robot")?;
         let env = settings.env_config(&runner)?;
-        SimRobot::new(topa_env::vec_env::robot_batch(&env, 1, settings.seed, 1)?, cfg)
+        SimRobot::new(topa_env::vec_env::robot_batch(&env, 1, settings.seed, 1)?, cfg, link)
     }
 
     /// The robot on `course`'s floors and walls at its start (falls are the course's interventions, so episodes
@@ -158,6 +164,7 @@ impl SimRobot {
         course: &Course,
         settings: &EvalSettings,
         cfg: &SimRobotConfig,
+        link: Link,
     ) -> Result<SimRobot> {
         let runner = PolicyRunner::load(policy, "robot")?;
         let mut env = settings.env_config(&runner)?;
@@ -165,7 +172,7 @@ impl SimRobot {
         let (model, friction) = course.compile(runner.robot())?;
         let mut batch = topa_env::vec_env::robot_batch_on(model, &env, 1, settings.seed, 1)?;
         batch.tasks_mut()[0].set_ground_friction(Some(Arc::new(friction)));
-        let mut robot = SimRobot::new(batch, cfg)?;
+        let mut robot = SimRobot::new(batch, cfg, link)?;
         let start = course.start();
         robot.set_home(Some([start.xy[0], start.xy[1], start.heading]));
         robot.reset()?;

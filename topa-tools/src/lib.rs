@@ -21,6 +21,7 @@ pub mod error;
 pub mod export;
 pub mod info;
 pub mod operator_keys;
+pub mod operator_pad;
 pub mod robot_info;
 
 pub use error::{Error, Result};

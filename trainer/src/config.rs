@@ -270,7 +270,7 @@ impl Default for AdversaryConfig {
 
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
-    #[error("cannot read config {path}: {source}")]
+    #[error("cannot read config {path}")]
     Io { path: String, source: std::io::Error },
     #[error("config {path}: {message}")]
     Parse { path: String, message: String },
