@@ -82,6 +82,7 @@ impl VideoArgs {
 pub(crate) enum EvalCmd {
     /// The paper's six velocity commands: MAE, mean torque, mean roll/pitch, fall.
     Tracking {
+        /// The policy file (`assets/policies/<group>/seedN.json`, or a `topa train --out` folder's policy.json).
         #[arg(long)]
         policy: PathBuf,
         /// Seconds per command (after settling).
@@ -93,6 +94,7 @@ pub(crate) enum EvalCmd {
     },
     /// Constant torso force on a grid: time to fall, mean t_fall, heatmap (PNG + SVG).
     Push {
+        /// The policy file (`assets/policies/<group>/seedN.json`, or a `topa train --out` folder's policy.json).
         #[arg(long)]
         policy: PathBuf,
         /// Grid half-range, N.
@@ -113,6 +115,7 @@ pub(crate) enum EvalCmd {
     },
     /// Walk forward at 0.5 m/s under Gaussian command noise at the paper's four levels: success rates.
     Noise {
+        /// The policy file (`assets/policies/<group>/seedN.json`, or a `topa train --out` folder's policy.json).
         #[arg(long)]
         policy: PathBuf,
         /// Runs per noise level.
@@ -128,6 +131,7 @@ pub(crate) enum EvalCmd {
     /// Drive the policy over a course (the paper's 100 m indoor test) at several top speeds: time to the goal,
     /// interventions, joint-limit hits, distance off the path; a map of the runs (and a chase-camera video).
     Course {
+        /// The policy file (`assets/policies/<group>/seedN.json`, or a `topa train --out` folder's policy.json).
         #[arg(long)]
         policy: PathBuf,
         /// The course file.
@@ -144,6 +148,7 @@ pub(crate) enum EvalCmd {
     /// tile's centre: success, progress, tracking MAE, foot slip; a success heatmap (and a video of the hardest
     /// tile every run walked).
     Terrain {
+        /// The policy file (`assets/policies/<group>/seedN.json`, or a `topa train --out` folder's policy.json).
         #[arg(long)]
         policy: PathBuf,
         #[command(flatten)]
@@ -177,6 +182,7 @@ pub(crate) enum EvalCmd {
     /// solver, integrator, timestep, friction, motors, torso, soles, latency), one at a time and combined: per
     /// perturbation the bars met or missed, the share survived, a heatmap.
     Physics {
+        /// The policy file (`assets/policies/<group>/seedN.json`, or a `topa train --out` folder's policy.json).
         #[arg(long)]
         policy: PathBuf,
         #[command(flatten)]
@@ -185,6 +191,7 @@ pub(crate) enum EvalCmd {
     /// A long run under an operator-like joystick (speed changes, turns, stops, hand noise, occasional pushes):
     /// interventions and their causes.
     Endurance {
+        /// The policy file (`assets/policies/<group>/seedN.json`, or a `topa train --out` folder's policy.json).
         #[arg(long)]
         policy: PathBuf,
         /// Simulated minutes per run.
@@ -197,6 +204,7 @@ pub(crate) enum EvalCmd {
     /// The base velocity as the robot knows it — a velocity-free policy's learned estimate, the Kalman filter's
     /// (with `--sim2sim realistic` or a file) — against the truth, on one walk through a cycle of commands.
     Velocity {
+        /// The policy file (`assets/policies/<group>/seedN.json`, or a `topa train --out` folder's policy.json).
         #[arg(long)]
         policy: PathBuf,
         /// Seconds of walking.

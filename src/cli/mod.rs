@@ -147,6 +147,7 @@ pub(crate) enum Cmd {
     },
     /// Run a policy on the closed model with one command; record it to MCAP for Foxglove.
     Play {
+        /// The policy file (`assets/policies/<group>/seedN.json`, or a `topa train --out` folder's policy.json).
         #[arg(long)]
         policy: PathBuf,
         /// Command v_x,v_y,w_z (m/s, m/s, rad/s), e.g. 0.5,0,0.
