@@ -153,6 +153,7 @@ pub(crate) enum Cmd {
         /// Command v_x,v_y,w_z (m/s, m/s, rad/s), e.g. 0.5,0,0.
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "0.5,0,0")]
         command: Vec<f64>,
+        /// Seconds to run, s.
         #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 10.0)]
         seconds: f64,
         /// Write an MCAP file (Foxglove: /tf, /scene, /joints, /motors, /base, /command, /contacts, /rewards).
@@ -253,6 +254,7 @@ pub(crate) enum BenchCmd {
     },
     /// env-steps/s of the batched TopA env vs the bare physics bound, for batch sizes × thread counts.
     Env {
+        /// The model: closed (the linkage), open (joint-space action), or the other variants of `topa info`.
         #[arg(long, default_value = "closed")]
         model: topa_env::ModelKind,
         /// Batch sizes.
@@ -282,6 +284,7 @@ pub(crate) enum BenchCmd {
     /// Samples/s of a full PPO update (paper networks, 24 576 samples) at 1 and 2 threads, GFLOP/s, inference
     /// share of an iteration, and the torch reference if given.
     Ppo {
+        /// Thread counts to time the update at, one run each.
         #[arg(long, value_delimiter = ',', default_value = "1,2")]
         threads: Vec<usize>,
         /// Timed updates per thread count (best kept).
@@ -297,6 +300,7 @@ pub(crate) enum BenchCmd {
     /// Memory per env and start-up time of a batch, and the largest MuJoCo memory use (stack, contacts,
     /// constraint rows) over walking, pushed and falling episodes against the MJCF's <size>.
     Memory {
+        /// Envs in the batch whose memory is measured.
         #[arg(long, default_value_t = 4096)]
         envs: usize,
         /// Policy steps per measured workload.
@@ -312,8 +316,10 @@ pub(crate) enum BenchCmd {
     /// Training on N MPI ranks vs one rank with the same threads: samples/s, communication share and bytes per
     /// iteration (needs a build with `--features mpi` and Open MPI's mpirun).
     Mpi {
+        /// The training config whose rollout and update are timed.
         #[arg(long, default_value = "configs/cpu.toml")]
         config: PathBuf,
+        /// MPI ranks to compare with one process.
         #[arg(long, default_value_t = 2)]
         ranks: usize,
         /// Timed iterations per launch.
@@ -325,15 +331,19 @@ pub(crate) enum BenchCmd {
         /// Interleaved rounds (the fastest of each layout is kept).
         #[arg(long, default_value_t = 2)]
         rounds: usize,
+        /// The MPI launcher to run the ranks with.
         #[arg(long, default_value = "mpirun")]
         mpirun: String,
     },
     /// Milliseconds per frame of MuJoCo's headless renderer (and of GIF encoding).
     Render {
+        /// Frame width, pixels.
         #[arg(long, default_value_t = 640)]
         width: usize,
+        /// Frame height, pixels.
         #[arg(long, default_value_t = 480)]
         height: usize,
+        /// Frames to render and time.
         #[arg(long, default_value_t = 200)]
         frames: usize,
         /// fast (the videos' default) or high (multisampling, shadows, reflections).
@@ -343,8 +353,10 @@ pub(crate) enum BenchCmd {
     /// Real training iterations of a preset: samples/s, the collect / inference / update split, and their ratio
     /// to the bare physics bound measured in the same run.
     Train {
+        /// The training config whose iterations are timed.
         #[arg(long, default_value = "configs/cpu.toml")]
         config: PathBuf,
+        /// Thread counts to time it at, one run each.
         #[arg(long, value_delimiter = ',', default_value = "1,2")]
         threads: Vec<usize>,
         /// Override the preset's number of envs.

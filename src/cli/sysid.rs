@@ -17,6 +17,7 @@ pub(crate) enum SysidCmd {
         /// Motors to excite, by actuator name (default: all of the spec's motors).
         #[arg(long, value_delimiter = ',')]
         motors: Vec<String>,
+        /// The excitation's shape: multisine (random phases over the band), chirp (a sweep through it), prbs.
         #[arg(long, value_enum, default_value = "multisine")]
         shape: Shape,
         /// What the trajectory commands.
@@ -37,6 +38,7 @@ pub(crate) enum SysidCmd {
         /// Fade in and out, s.
         #[arg(long, default_value_t = 1.0)]
         fade: f64,
+        /// Seed of the random draws (the multisine's phases, the PRBS's flips).
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// The CSV to write (the spectrum goes beside it as *_spectrum.png).
@@ -88,6 +90,7 @@ pub(crate) enum SysidCmd {
         /// Tune on this recording instead (CSV, docs/sysid.md); needs --held-out-recording.
         #[arg(long, requires = "held_out_recording")]
         recording: Option<PathBuf>,
+        /// The recording the tuned filter is checked on (CSV, as --recording).
         #[arg(long)]
         held_out_recording: Option<PathBuf>,
         /// Seed of the fitted recording (the held-out one gets seed + 1).
@@ -141,6 +144,7 @@ pub(crate) enum SysidCmd {
         /// Start value of the torque constant (N·m/A for current logs; a ratio otherwise).
         #[arg(long, default_value_t = 1.0)]
         torque_constant: f64,
+        /// Simulations the fit may run at most.
         #[arg(long, default_value_t = 3000)]
         max_evaluations: usize,
         /// Hidden true values (a *_truth.json of `topa sysid simulate`): report each fitted value's error.

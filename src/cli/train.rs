@@ -17,6 +17,7 @@ pub(crate) struct TrainArgs {
     /// The robot to train: its spec (a TOML beside its MJCF), e.g. assets/robots/kestrel.toml.
     #[arg(long)]
     pub(crate) robot: Option<PathBuf>,
+    /// Seed of the run: the envs' draws and the networks' initialisation (default: the config's).
     #[arg(long)]
     pub(crate) seed: Option<u64>,
     /// Output folder (default runs/<model>[-adversary]-seed<S>).
