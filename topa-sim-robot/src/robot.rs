@@ -44,13 +44,6 @@ pub struct SimRobotConfig {
     pub frame_hz: Option<f64>,
 }
 
-impl SimRobotConfig {
-    /// The UDP socket on `listen`, sending to `controller`.
-    pub fn udp_link(&self) -> Result<Link> {
-        Link::bind(self.listen, self.controller).map_err(|source| Error::Socket { addr: self.listen, source })
-    }
-}
-
 /// What the robot counted: the wire, the watchdog, and how well it kept real time.
 #[derive(Debug, Clone, Default, serde::Serialize)]
 pub struct Counters {
@@ -109,7 +102,7 @@ pub struct SimRobot {
 
 impl SimRobot {
     /// A robot from a one-env batch (its config says the physics and the realistic models), on its gantry, talking
-    /// over `link` (`cfg.udp_link()`, or a Zenoh link).
+    /// over `link` (a UDP socket on `cfg.listen` towards `cfg.controller`, or a Zenoh link).
     pub fn new(batch: BatchEnv<RobotEnv>, cfg: &SimRobotConfig, mut link: Link) -> Result<SimRobot> {
         cfg.impairment.validate()?;
         let env = &batch.tasks()[0];
