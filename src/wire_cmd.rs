@@ -24,14 +24,7 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
     let settings = EvalSettings { seed: a.seed, ..Default::default() }.with_sim2sim(&a.sim2sim)?;
     let impairment = Impairment { loss: a.loss, latency_s: a.latency_ms * 1e-3, jitter_s: a.jitter_ms * 1e-3 };
     let watchdog_s = a.watchdog_ms.map(|ms| ms * 1e-3);
-    let rc = SimRobotConfig {
-        listen: a.listen,
-        controller: a.controller,
-        impairment,
-        watchdog_s,
-        seed: a.seed,
-        frame_hz: a.frame_hz,
-    };
+    let rc = SimRobotConfig { impairment, watchdog_s, seed: a.seed, frame_hz: a.frame_hz };
     let course = match &a.course {
         Some(path) => Some(
             topa_env::course::Course::load(&topa_env::assets::resolve_path(&path.to_string_lossy()))

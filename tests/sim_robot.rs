@@ -67,19 +67,12 @@ fn spawn_control_over(dir: &Path, p: &Ports, start: bool, zenoh_prefix: Option<&
 
 fn robot(p: &Ports, impairment: Impairment) -> SimRobot {
     let link = topa_control::transport::Link::bind(p.robot, p.controller).unwrap();
-    robot_over(p, impairment, link)
+    robot_over(impairment, link)
 }
 
-fn robot_over(p: &Ports, impairment: Impairment, link: topa_control::transport::Link) -> SimRobot {
+fn robot_over(impairment: Impairment, link: topa_control::transport::Link) -> SimRobot {
     let settings = EvalSettings::default().with_sim2sim(&Sim2SimMode::Realistic).unwrap();
-    let cfg = SimRobotConfig {
-        listen: p.robot,
-        controller: p.controller,
-        impairment,
-        watchdog_s: None,
-        seed: 3,
-        frame_hz: None,
-    };
+    let cfg = SimRobotConfig { impairment, watchdog_s: None, seed: 3, frame_hz: None };
     SimRobot::for_policy(Path::new(POLICY), &settings, &cfg, link).unwrap()
 }
 
@@ -164,7 +157,7 @@ fn over_zenoh_the_robot_walks_the_six_commands() {
     let session = ZenohSession::open(&[format!("tcp/{}", p.robot)], &[format!("tcp/{}", p.controller)]).unwrap();
     let key = |k: &str| format!("{prefix}/{k}");
     let link = Link::zenoh(session.carrier(key("sensors"), Some(key("command"))).unwrap());
-    let r = robot_over(&p, Impairment::default(), link);
+    let r = robot_over(Impairment::default(), link);
     let op = Operator::over(Link::zenoh(session.carrier(key("operator"), None).unwrap()));
     let Some((worst, fell, c)) = tracking_with("zenoh", &p, r, op, Some(&prefix)) else { return };
     assert!(!fell, "a run fell over Zenoh: {c:?}");

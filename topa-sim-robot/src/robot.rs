@@ -26,13 +26,9 @@ use crate::error::{Error, Result};
 /// This side's peer id on the wire.
 pub const PEER_ID: u32 = 0x5349_4d52; // "SIMR"
 
-/// Where the robot listens and whom it talks to, and the network between them.
+/// The robot's drives, frames and the network between it and the controller (its link is made by the caller).
 #[derive(Debug, Clone)]
 pub struct SimRobotConfig {
-    /// This side's socket (loopback unless an address is given; UDP).
-    pub listen: SocketAddr,
-    /// The controller's socket (UDP).
-    pub controller: SocketAddr,
     /// Loss, latency and jitter on both directions.
     pub impairment: Impairment,
     /// The drives damp when no valid command came for this long, s (None: five control periods — a lossy link
@@ -102,7 +98,7 @@ pub struct SimRobot {
 
 impl SimRobot {
     /// A robot from a one-env batch (its config says the physics and the realistic models), on its gantry, talking
-    /// over `link` (a UDP socket on `cfg.listen` towards `cfg.controller`, or a Zenoh link).
+    /// over `link` (a UDP socket towards the controller, or a Zenoh link).
     pub fn new(batch: BatchEnv<RobotEnv>, cfg: &SimRobotConfig, mut link: Link) -> Result<SimRobot> {
         cfg.impairment.validate()?;
         let env = &batch.tasks()[0];
