@@ -77,7 +77,7 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             let result = course::run(&mut r, &map, &s, &speeds, None)?;
             report::write_json(&c.out, "course.json", &result)?;
             let png = c.out.join("course_map.png");
-            let title = format!("{} on {} ({} sim2sim)", policy.display(), map.name, c.sim2sim);
+            let title = format!("{} on {} ({} sim2sim)", policy.display(), map.name, c.sim.sim2sim);
             course_map::course_map(&map, &result, &title, &png)?;
             if let Some(file) = &video.video {
                 let top = speeds.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
@@ -96,7 +96,7 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             report::write_json(&c.out, "terrain.json", &result)?;
             report::write_text(&c.out, "terrain.md", &terrain::markdown(&result))?;
             let (png, svg) = (c.out.join("terrain_success.png"), c.out.join("terrain_success.svg"));
-            let title = format!("{} ({} sim2sim)", policy.display(), c.sim2sim);
+            let title = format!("{} ({} sim2sim)", policy.display(), c.sim.sim2sim);
             terrain_map::success_map(&result, &title, &png, &svg)?;
             if let Some(file) = &video.video {
                 match topa_eval::clips::hardest_tile(&result) {

@@ -9,6 +9,7 @@ mod print;
 mod robot_cmd;
 mod sysid_cmd;
 mod train_cmd;
+mod view_cmd;
 mod wire_cmd;
 
 use std::process::ExitCode;
@@ -122,7 +123,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Cmd::Play { policy, command, seconds, record, video, push, common } => {
+        Cmd::Play { policy, command, seconds, record, video, push, json, sim } => {
             trainer::nn::init_threads(1)?;
             anyhow::ensure!(command.len() == 3, "--command takes three numbers v_x,v_y,w_z, got {}", command.len());
             let torso_force = match push.as_deref() {
@@ -137,8 +138,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 torso_force,
                 ..video.options()?
             };
-            let s = play::run(&policy, &o, &common.settings()?)?;
-            if common.json {
+            let s = play::run(&policy, &o, &sim.settings()?)?;
+            if json {
                 println!("{}", serde_json::to_string_pretty(&s)?);
             } else {
                 let fall = s.fell_at_s.map_or("no fall".to_string(), |t| format!("FELL at {t:.2} s"));
@@ -155,6 +156,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Cmd::View(a) => view_cmd::run(a),
         Cmd::Config(ConfigCmd::Reference { paper }) => {
             print!("{}", config_reference::reference(&paper)?);
             Ok(())

@@ -23,6 +23,7 @@ mod error;
 pub mod gl;
 mod guard;
 pub mod hfield_box;
+pub mod interact;
 mod kinds;
 mod model;
 mod model_arrays;

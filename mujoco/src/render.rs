@@ -1,5 +1,5 @@
-//! Offscreen rendering with MuJoCo's own renderer (`mjv_*` scene, `mjr_*` OpenGL context): RGB frames of a
-//! `Data` from a camera that follows a body, with MuJoCo's text overlay. The caller makes an OpenGL context
+//! Rendering with MuJoCo's own renderer (`mjv_*` scene, `mjr_*` OpenGL context): RGB frames of a `Data` from a
+//! camera that follows a body, with MuJoCo's text overlay, offscreen (videos) or into a window (the viewer). The caller makes an OpenGL context
 //! current on this thread first (EGL, OSMesa or GLX); MuJoCo finds its functions through whichever of those
 //! libraries the process has loaded. Every call that can raise a MuJoCo error returns `Err`.
 
@@ -36,8 +36,30 @@ pub struct Renderer {
     height: usize,
     rgb: Vec<u8>,
     frame: Vec<u8>,
+    /// The size of the last drawn viewport.
+    viewport: (usize, usize),
     /// The OpenGL context was set up (only then may it be freed: freeing calls into OpenGL).
     context_made: bool,
+}
+
+/// A corner of the frame for a text overlay.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Corner {
+    TopLeft,
+    TopRight,
+    BottomLeft,
+    BottomRight,
+}
+
+impl Corner {
+    fn grid(self) -> i32 {
+        (match self {
+            Corner::TopLeft => ffi::mjGRID_TOPLEFT,
+            Corner::TopRight => ffi::mjGRID_TOPRIGHT,
+            Corner::BottomLeft => ffi::mjGRID_BOTTOMLEFT,
+            Corner::BottomRight => ffi::mjGRID_BOTTOMRIGHT,
+        }) as i32
+    }
 }
 
 impl Drop for Renderer {
@@ -56,6 +78,38 @@ impl Renderer {
     /// A renderer of `width` × `height` pixels for `model`. Needs a current OpenGL context; the size must fit the
     /// model's offscreen buffer (`<visual><global offwidth offheight>`).
     pub fn new(model: Arc<Model>, width: usize, height: usize, quality: Quality) -> Result<Self> {
+        let mut r = Self::make(model, width, height, quality)?;
+        // SAFETY: the context was made by `make`.
+        unsafe { ffi::mjr_setBuffer(ffi::mjFB_OFFSCREEN as i32, &mut *r.context) };
+        let c = &r.context;
+        if c.currentBuffer != ffi::mjFB_OFFSCREEN as i32 {
+            return Err(MujocoError::Invalid("the OpenGL context has no offscreen framebuffer".into()));
+        }
+        if width > c.offWidth as usize || height > c.offHeight as usize || width == 0 || height == 0 {
+            return Err(MujocoError::Invalid(format!(
+                "frame {width}×{height} does not fit the model's offscreen buffer {}×{} (raise <visual><global \
+                 offwidth offheight> in the MJCF)",
+                c.offWidth, c.offHeight
+            )));
+        }
+        r.rgb = vec![0; 3 * width * height];
+        r.frame = vec![0; 3 * width * height];
+        Ok(r)
+    }
+
+    /// A renderer drawing into the window whose OpenGL context is current on this thread (its default
+    /// framebuffer); the viewport is given with each `draw`.
+    pub fn on_window(model: Arc<Model>, quality: Quality) -> Result<Self> {
+        let mut r = Self::make(model, 0, 0, quality)?;
+        // SAFETY: the context was made by `make`.
+        unsafe { ffi::mjr_setBuffer(ffi::mjFB_WINDOW as i32, &mut *r.context) };
+        if r.context.currentBuffer != ffi::mjFB_WINDOW as i32 {
+            return Err(MujocoError::Invalid("the OpenGL context has no window framebuffer".into()));
+        }
+        Ok(r)
+    }
+
+    fn make(model: Arc<Model>, width: usize, height: usize, quality: Quality) -> Result<Self> {
         let mut model = model;
         if quality == Quality::Fast {
             let m = Arc::make_mut(&mut model);
@@ -83,8 +137,8 @@ impl Renderer {
         guarded("mjv_makeScene", |e, n| unsafe { shim::mjs_make_scene(m, scn, MAX_GEOM, e, n) })?;
         // Text about 1/25 of the frame height: MuJoCo's font scales are fixed steps.
         let font = match height {
-            0..=300 => ffi::mjFONTSCALE_50,
-            301..=600 => ffi::mjFONTSCALE_100,
+            1..=300 => ffi::mjFONTSCALE_50,
+            0 | 301..=600 => ffi::mjFONTSCALE_100,
             _ => ffi::mjFONTSCALE_150,
         };
         // SAFETY: a GL context is current (made above) and `con` is a default-initialised mjrContext; the call is
@@ -100,6 +154,7 @@ impl Renderer {
             height,
             rgb: Vec::new(),
             frame: Vec::new(),
+            viewport: (width, height),
             context_made: made.is_ok(),
         };
         made.map_err(|e| {
@@ -108,21 +163,6 @@ impl Renderer {
         if quality == Quality::Fast {
             r.set_effects(false, false);
         }
-        // SAFETY: the context was made above.
-        unsafe { ffi::mjr_setBuffer(ffi::mjFB_OFFSCREEN as i32, &mut *r.context) };
-        let c = &r.context;
-        if c.currentBuffer != ffi::mjFB_OFFSCREEN as i32 {
-            return Err(MujocoError::Invalid("the OpenGL context has no offscreen framebuffer".into()));
-        }
-        if width > c.offWidth as usize || height > c.offHeight as usize || width == 0 || height == 0 {
-            return Err(MujocoError::Invalid(format!(
-                "frame {width}×{height} does not fit the model's offscreen buffer {}×{} (raise <visual><global \
-                 offwidth offheight> in the MJCF)",
-                c.offWidth, c.offHeight
-            )));
-        }
-        r.rgb = vec![0; 3 * width * height];
-        r.frame = vec![0; 3 * width * height];
         Ok(r)
     }
 
@@ -131,6 +171,27 @@ impl Renderer {
     pub fn set_effects(&mut self, shadows: bool, reflections: bool) {
         self.scene.flags[ffi::mjRND_SHADOW as usize] = shadows as u8;
         self.scene.flags[ffi::mjRND_REFLECTION as usize] = reflections as u8;
+    }
+
+    /// The model, scene and camera, for the mouse's functions.
+    pub(crate) fn parts(&mut self) -> (*const ffi::mjModel, *const mjvScene, *mut mjvCamera) {
+        (self.model.raw(), &*self.scene, &mut self.camera)
+    }
+
+    pub(crate) fn option_and_scene(&self) -> (*const mjvOption, *const mjvScene) {
+        (&*self.option, &*self.scene)
+    }
+
+    /// The camera's distance to what it looks at, m.
+    pub fn camera_distance(&self) -> Option<f64> {
+        (self.camera.distance > 0.0).then_some(self.camera.distance)
+    }
+
+    /// A free camera (the mouse moves it) looking at `lookat` from `distance` m.
+    pub fn free(&mut self, lookat: [f64; 3], distance: f64) {
+        self.camera.type_ = ffi::mjCAMERA_FREE as i32;
+        self.camera.lookat = lookat;
+        self.camera.distance = distance;
     }
 
     /// A camera that follows `body` at `distance` m, looking from `azimuth`° and `elevation`°.
@@ -142,8 +203,9 @@ impl Renderer {
         self.camera.elevation = elevation;
     }
 
+    /// The size of the frame (offscreen) or of the last drawn viewport (window).
     pub fn size(&self) -> (usize, usize) {
-        (self.width, self.height)
+        self.viewport
     }
 
     /// Where a world point appears in the last rendered frame, in pixels from the top-left corner (None behind
@@ -163,10 +225,11 @@ impl Renderer {
         let near = c.frustum_near as f64;
         let (bottom, top, centre) = (c.frustum_bottom as f64, c.frustum_top as f64, c.frustum_center as f64);
         let half_h = (top - bottom) / 2.0;
-        let half_w = half_h * self.width as f64 / self.height as f64;
+        let (width, height) = (self.viewport.0 as f64, self.viewport.1 as f64);
+        let half_w = half_h * width / height;
         let (x, y) = (dot(r) * near / z, dot(u) * near / z);
-        let px = self.width as f64 / 2.0 * (1.0 + (x - centre) / half_w);
-        let py = self.height as f64 / 2.0 * (1.0 - (y - (top + bottom) / 2.0) / half_h);
+        let px = width / 2.0 * (1.0 + (x - centre) / half_w);
+        let py = height / 2.0 * (1.0 - (y - (top + bottom) / 2.0) / half_h);
         Some((px, py))
     }
 
@@ -176,17 +239,17 @@ impl Renderer {
         let (seg, id) = (ffi::mjRND_SEGMENT as usize, ffi::mjRND_IDCOLOR as usize);
         self.scene.flags[seg] = 1;
         self.scene.flags[id] = 1;
-        let frame = self.render(d, None).map(|f| f.to_vec());
+        let size = self.viewport;
+        let drawn = self.draw(d, size, &[], None);
         self.scene.flags[seg] = 0;
         self.scene.flags[id] = 0;
-        let frame = frame?;
-        if x >= self.width || y >= self.height {
-            return Err(MujocoError::Invalid(format!(
-                "pixel ({x}, {y}) outside the {}×{} frame",
-                self.width, self.height
-            )));
+        drawn?;
+        let frame = self.read_pixels();
+        let (width, height) = size;
+        if x >= width || y >= height {
+            return Err(MujocoError::Invalid(format!("pixel ({x}, {y}) outside the {width}×{height} frame")));
         }
-        let p = &frame[3 * (y * self.width + x)..];
+        let p = &frame[3 * (y * width + x)..];
         let code = p[0] as usize | (p[1] as usize) << 8 | (p[2] as usize) << 16;
         if code == 0 || code > self.scene.ngeom as usize {
             return Ok(None);
@@ -199,18 +262,40 @@ impl Renderer {
     /// Renders `d` and returns the frame as RGB rows, top row first. `overlay` is written in the top-left
     /// corner (two columns: labels, values; lines separated by '\n').
     pub fn render(&mut self, d: &mut Data, overlay: Option<(&str, &str)>) -> Result<&[u8]> {
+        let texts: Vec<_> = overlay.map(|(a, b)| (Corner::TopLeft, a, b)).into_iter().collect();
+        let (w, h) = (self.width, self.height);
+        self.draw(d, (w, h), &texts, None)?;
+        let mut rgb = std::mem::take(&mut self.rgb);
+        let mut frame = std::mem::take(&mut self.frame);
+        self.read_into((w, h), &mut rgb, &mut frame);
+        (self.rgb, self.frame) = (rgb, frame);
+        Ok(&self.frame)
+    }
+
+    /// Draws `d` into the current framebuffer's `size` (width, height) viewport, with text overlays (labels,
+    /// values; lines separated by '\n') and, where given, the mouse perturbation's marker.
+    pub fn draw(
+        &mut self,
+        d: &mut Data,
+        (width, height): (usize, usize),
+        overlays: &[(Corner, &str, &str)],
+        perturb: Option<&crate::interact::Perturb>,
+    ) -> Result<()> {
         if d.model().raw().nbody != self.model.raw().nbody || d.model().raw().ngeom != self.model.raw().ngeom {
             return Err(MujocoError::Invalid("render: the Data belongs to another model".into()));
         }
-        let viewport = mjrRect { left: 0, bottom: 0, width: self.width as i32, height: self.height as i32 };
+        let viewport = mjrRect { left: 0, bottom: 0, width: width as i32, height: height as i32 };
+        self.viewport = (width, height);
         let m = d.model().raw() as *const _;
-        // SAFETY: d was made for a model of this structure; owned structs; the scene holds MAX_GEOM geoms.
+        let pert = perturb.map_or(std::ptr::null(), |p| p.raw());
+        // SAFETY: d was made for a model of this structure; owned structs; the scene holds MAX_GEOM geoms; `pert`
+        // null or a valid perturbation.
         unsafe {
             ffi::mjv_updateScene(
                 m,
                 d.raw_mut(),
                 &*self.option,
-                std::ptr::null(),
+                pert,
                 &mut self.camera,
                 ffi::mjCAT_ALL as i32,
                 &mut *self.scene,
@@ -219,13 +304,13 @@ impl Renderer {
         let (scn, con) = (&mut *self.scene as *mut mjvScene, &*self.context as *const mjrContext);
         // SAFETY: owned structs, context made in `new`.
         guarded("mjr_render", |e, n| unsafe { shim::mjs_render(viewport, scn, con, e, n) })?;
-        if let Some((left, right)) = overlay {
+        for &(corner, left, right) in overlays {
             let (a, b) = (CString::new(left).unwrap_or_default(), CString::new(right).unwrap_or_default());
             // SAFETY: NUL-terminated strings, context made in `new`.
             unsafe {
                 ffi::mjr_overlay(
                     ffi::mjFONT_NORMAL as i32,
-                    ffi::mjGRID_TOPLEFT as i32,
+                    corner.grid(),
                     viewport,
                     a.as_ptr(),
                     b.as_ptr(),
@@ -233,13 +318,25 @@ impl Renderer {
                 )
             };
         }
-        // SAFETY: rgb holds width × height × 3 bytes.
-        unsafe { ffi::mjr_readPixels(self.rgb.as_mut_ptr(), std::ptr::null_mut(), viewport, &*self.context) };
+        Ok(())
+    }
+
+    /// The pixels of the last `draw` as RGB rows, top row first.
+    pub fn read_pixels(&self) -> Vec<u8> {
+        let (w, h) = self.viewport;
+        let (mut rgb, mut frame) = (vec![0; 3 * w * h], vec![0; 3 * w * h]);
+        self.read_into((w, h), &mut rgb, &mut frame);
+        frame
+    }
+
+    fn read_into(&self, (w, h): (usize, usize), rgb: &mut [u8], frame: &mut [u8]) {
+        let viewport = mjrRect { left: 0, bottom: 0, width: w as i32, height: h as i32 };
+        // SAFETY: rgb holds w × h × 3 bytes.
+        unsafe { ffi::mjr_readPixels(rgb.as_mut_ptr(), std::ptr::null_mut(), viewport, &*self.context) };
         // OpenGL's rows run bottom-up.
-        let row = 3 * self.width;
-        for (dst, src) in self.frame.chunks_exact_mut(row).zip(self.rgb.chunks_exact(row).rev()) {
+        let row = 3 * w;
+        for (dst, src) in frame.chunks_exact_mut(row).zip(rgb.chunks_exact(row).rev()) {
             dst.copy_from_slice(src);
         }
-        Ok(&self.frame)
     }
 }

@@ -16,8 +16,24 @@ pub(crate) struct Common {
     /// Folder for result files (CSV, JSON, images).
     #[arg(long, global = true, default_value = "out/eval")]
     pub(crate) out: PathBuf,
+    #[command(flatten)]
+    pub(crate) sim: Simulation,
+    /// Worker threads (0 = all cores).
+    #[arg(long, global = true, default_value_t = 0)]
+    pub(crate) threads: usize,
+}
+
+impl Common {
+    pub(crate) fn settings(&self) -> Result<EvalSettings> {
+        Ok(EvalSettings { threads: self.threads, ..self.sim.settings()? })
+    }
+}
+
+/// How a policy's robot is simulated: the physics and the sim2sim mode (every command that runs a policy).
+#[derive(Args, Clone)]
+pub(crate) struct Simulation {
     /// Physics timestep of the evaluation, s (training used 0.005; default 0.0025, or the sim2sim mode's own).
-    #[arg(long, global = true)]
+    #[arg(long, global = true, value_parser = crate::cli::values::positive)]
     pub(crate) timestep: Option<f64>,
     /// ideal (the simulator's state), realistic (state estimator, IMU and encoder noise, latency, motor
     /// torque–speed limits: configs/sim2sim/realistic.toml), or a TOML file with your own mix.
@@ -29,21 +45,12 @@ pub(crate) struct Common {
     /// Seed for the noise runs and env set-up.
     #[arg(long, global = true, default_value_t = 1)]
     pub(crate) seed: u64,
-    /// Worker threads (0 = all cores).
-    #[arg(long, global = true, default_value_t = 0)]
-    pub(crate) threads: usize,
 }
 
-impl Common {
+impl Simulation {
     pub(crate) fn settings(&self) -> Result<EvalSettings> {
-        Ok(EvalSettings {
-            timestep: self.timestep,
-            integrator: self.integrator,
-            seed: self.seed,
-            threads: self.threads,
-            ..Default::default()
-        }
-        .with_sim2sim(&self.sim2sim)?)
+        Ok(EvalSettings { timestep: self.timestep, integrator: self.integrator, seed: self.seed, ..Default::default() }
+            .with_sim2sim(&self.sim2sim)?)
     }
 }
 

@@ -11,9 +11,10 @@ mod robot;
 mod sysid;
 mod train;
 mod values;
+pub(crate) mod view;
 pub(crate) mod wire;
 
-pub(crate) use eval::{Common, EvalCmd, PhysicsArgs, QualityArg, TerrainArgs, VideoArgs};
+pub(crate) use eval::{Common, EvalCmd, PhysicsArgs, QualityArg, Simulation, TerrainArgs, VideoArgs};
 pub(crate) use groups::{Groups, Sim2SimArg};
 pub(crate) use robot::RobotCmd;
 pub(crate) use sysid::SysidCmd;
@@ -164,9 +165,15 @@ pub(crate) enum Cmd {
         /// Constant torso force (F_x,F_y in N, torso frame) from the command's start, as in the push grid.
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         push: Option<Vec<f64>>,
+        /// Print the summary as JSON.
+        #[arg(long)]
+        json: bool,
         #[command(flatten)]
-        common: Common,
+        sim: Simulation,
     },
+    /// Watch a policy walk, live, in a window: drive it from the keyboard, drag it with the mouse, shove it;
+    /// without a display, write the walk to a GIF.
+    View(view::ViewArgs),
     /// Rewrite the generated blocks of Markdown pages (`<!-- generated: REPORT SECTION -->` … `<!-- end generated -->`)
     /// from the ablation reports they name, e.g. the README's tables after `topa ablate --merge`.
     Docs {

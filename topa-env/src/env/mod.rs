@@ -80,6 +80,8 @@ pub struct RobotEnv {
     command: [f64; 3],
     command_override: Option<[f64; 3]>,
     perturbation: Perturbation,
+    /// A wrench on one body (world frame: force, torque), added to the perturbation's (the viewer's mouse).
+    body_wrench: Option<(usize, [f64; 6])>,
     last_action: Vec<f64>,
     /// Earlier frames of proprioception as observed, newest first (`[env.observation] history`).
     history: Vec<f32>,
@@ -186,6 +188,7 @@ impl RobotEnv {
             command: [0.0; 3],
             command_override: None,
             perturbation: Perturbation::default(),
+            body_wrench: None,
             last_action: vec![0.0; n],
             air_time: [0.0; 2],
             contact_time: [0.0; 2],
@@ -241,6 +244,13 @@ impl RobotEnv {
     }
     pub fn set_perturbation_struct(&mut self, p: Perturbation) {
         self.perturbation = p;
+    }
+    /// A wrench (world frame: force N, torque N·m) on `body` at every physics step until replaced; None removes it.
+    pub fn set_body_wrench(&mut self, w: Option<(usize, [f64; 6])>) {
+        if let Some((b, _)) = self.body_wrench.take() {
+            self.data.xfrc_applied_mut()[b] = [0.0; 6];
+        }
+        self.body_wrench = w.filter(|(b, _)| *b < self.data.model().raw().nbody as usize);
     }
     /// The body-height reward's target: the config's, or the robot spec's where the config leaves it at 0.
     pub fn base_height_target(&self) -> f64 {
@@ -310,6 +320,14 @@ impl RobotEnv {
         xfrc[torso][..3].copy_from_slice(f_torso.as_slice());
         for f in 0..2 {
             xfrc[feet[f]][..3].copy_from_slice(&p.foot_force[f]);
+        }
+        if let Some((b, w)) = self.body_wrench {
+            // On a body the perturbation also pushes, its wrench was written above: add (the torque slots stay
+            // ours alone).
+            let own = b == torso || feet.contains(&b);
+            for i in 0..6 {
+                xfrc[b][i] = if i < 3 && own { xfrc[b][i] + w[i] } else { w[i] };
+            }
         }
     }
 

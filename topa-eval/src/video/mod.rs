@@ -16,6 +16,11 @@ pub use mujoco::gl::{GlContext, INSTALL_HINT};
 /// scaled by its own stand height (its spec's `base_height_target`), so that a taller one stays in the frame.
 const FRAMED_STAND_HEIGHT_M: f64 = 0.5607;
 
+/// The factor on camera distances that frames `env`'s robot as TopA is framed.
+pub fn camera_scale(env: &RobotEnv) -> f64 {
+    env.indices().spec.base_height_target / FRAMED_STAND_HEIGHT_M
+}
+
 /// Frames of a run at a fixed rate.
 pub struct VideoRecorder {
     // Field order is drop order: the renderer frees OpenGL objects while the context still exists.
@@ -37,7 +42,7 @@ impl VideoRecorder {
     ) -> Result<VideoRecorder> {
         let gl = GlContext::headless(width, height)?;
         let mut renderer = Renderer::new(env.data().model_arc().clone(), width, height, quality)?;
-        let scale = env.indices().spec.base_height_target / FRAMED_STAND_HEIGHT_M;
+        let scale = camera_scale(env);
         renderer.track(env.indices().torso_body, 1.6 * scale, 150.0, -12.0);
         let writer = VideoWriter::create(path, width, height, fps)?;
         Ok(VideoRecorder { renderer, _gl: gl, writer, fps, scale })

@@ -1,0 +1,38 @@
+//! `topa view`'s flags.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use super::eval::{QualityArg, Simulation};
+use super::values::{at_least_one, positive};
+
+#[derive(Args)]
+pub(crate) struct ViewArgs {
+    /// The policy file (`assets/policies/<group>/seedN.json`, or a `topa train --out` folder's policy.json).
+    #[arg(long, default_value = "assets/policies/CA/seed1.json")]
+    pub(crate) policy: PathBuf,
+    /// Starting command v_x,v_y,w_z (m/s, m/s, rad/s); the keys change it.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "0.4,0,0")]
+    pub(crate) command: Vec<f64>,
+    /// Window size WIDTHxHEIGHT, pixels.
+    #[arg(long, default_value = "960x640")]
+    pub(crate) size: topa_eval::video::FrameSize,
+    /// fast (no multisampling, shadows or reflections: smooth on a software renderer) or high.
+    #[arg(long, default_value = "fast")]
+    pub(crate) quality: QualityArg,
+    /// Write the walk to this GIF instead of opening a window (the default without a display: topa-walk.gif).
+    #[arg(long)]
+    pub(crate) gif: Option<PathBuf>,
+    /// Length of the GIF's walk, s.
+    #[arg(long, value_parser = positive, default_value_t = 8.0)]
+    pub(crate) seconds: f64,
+    /// Draw this many frames, each 1/30 s of simulated time however long it takes, then close (scripted runs).
+    #[arg(long, value_parser = at_least_one)]
+    pub(crate) frames: Option<usize>,
+    /// Write the last frame to this PNG when the window closes.
+    #[arg(long)]
+    pub(crate) screenshot: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) sim: Simulation,
+}

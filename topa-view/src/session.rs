@@ -1,0 +1,211 @@
+//! The simulation behind the window: one policy on its robot under the evaluation settings, stepped on demand,
+//! with the keys' command, shoves and the mouse's wrench applied, and a fall answered by a reset (counted).
+
+use std::path::Path;
+use std::sync::Arc;
+
+use topa_env::policy_runner::PolicyRunner;
+use topa_env::terrain::TerrainConfig;
+use topa_env::{assets, RobotEnv, Task};
+use topa_eval::settings::EvalSettings;
+
+use crate::controls::{Action, Controls};
+use crate::error::{Error, Result};
+
+/// A shove's force, N: the push experiment's grid edge (`topa eval push` default range).
+pub const SHOVE_N: f64 = 30.0;
+/// How long a shove lasts, s.
+pub const SHOVE_S: f64 = 1.0;
+/// How long a fallen robot lies before it is put back, simulated s.
+const LIE_S: f64 = 1.0;
+/// Time constant of the measured velocity shown (the policy's gait oscillates within a step), s.
+const SHOWN_VELOCITY_TAU_S: f64 = 0.5;
+
+/// Why the robot was last put back.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum State {
+    Walking,
+    /// Fell at this simulated time; lying until the reset.
+    Fallen(f64),
+}
+
+pub struct Session {
+    env: RobotEnv,
+    runner: PolicyRunner,
+    obs: Vec<f32>,
+    actions: Vec<f32>,
+    pub controls: Controls,
+    /// Simulated time since the last reset, s.
+    t: f64,
+    state: State,
+    pub falls: usize,
+    /// Resets by key (the user's interventions).
+    pub resets: usize,
+    /// Torso-frame force of the shove under way and when it ends.
+    shove: Option<([f64; 2], f64)>,
+    /// The measured (v_x, v_y, w_z), torso frame, low-pass filtered for display.
+    shown_velocity: [f64; 3],
+}
+
+impl Session {
+    /// `policy` on its robot, evaluation settings `settings`, optionally on `terrain`, starting with `command`.
+    pub fn new(
+        policy: &Path,
+        settings: &EvalSettings,
+        terrain: Option<TerrainConfig>,
+        command: [f64; 3],
+    ) -> Result<Session> {
+        let runner = PolicyRunner::load(policy, "policy")?;
+        let mut cfg = settings.env_config(&runner)?;
+        if let Some(t) = terrain {
+            cfg.terrain = t;
+        }
+        // The viewer decides when a fallen robot is put back; it walks as long as the user watches.
+        cfg.episode_length_s = 1.0e9;
+        let (_, model) = assets::load_robot(&cfg)?;
+        let c = &runner.training_config().commands;
+        let ranges = [c.lin_vel_x, c.lin_vel_y, c.ang_vel_z];
+        let env = RobotEnv::new(model, Arc::new(cfg), settings.seed, 0)?;
+        let obs = vec![0.0; env.obs_dim()];
+        let mut s = Session {
+            env,
+            runner,
+            obs,
+            actions: Vec::new(),
+            controls: Controls::new(command, ranges),
+            t: 0.0,
+            state: State::Walking,
+            falls: 0,
+            resets: 0,
+            shove: None,
+            shown_velocity: [0.0; 3],
+        };
+        s.reset()?;
+        Ok(s)
+    }
+
+    pub fn env(&self) -> &RobotEnv {
+        &self.env
+    }
+
+    pub fn env_mut(&mut self) -> &mut RobotEnv {
+        &mut self.env
+    }
+
+    /// The policy's period, s.
+    pub fn dt(&self) -> f64 {
+        self.env.config().policy_dt()
+    }
+
+    /// Simulated time since the last reset, s.
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+
+    pub fn state(&self) -> State {
+        self.state
+    }
+
+    /// The measured (v_x, v_y, w_z) in the torso frame, low-pass filtered over half a second.
+    pub fn shown_velocity(&self) -> [f64; 3] {
+        self.shown_velocity
+    }
+
+    fn reset(&mut self) -> Result<()> {
+        self.env.reset(&mut self.obs)?;
+        self.env.set_perturbation_struct(Default::default());
+        self.t = 0.0;
+        self.state = State::Walking;
+        self.shove = None;
+        self.shown_velocity = [0.0; 3];
+        Ok(())
+    }
+
+    /// Applies a key's action. Returns false for Quit.
+    pub fn apply(&mut self, a: Action) -> Result<bool> {
+        match a {
+            Action::Quit => return Ok(false),
+            Action::Reset => {
+                self.resets += 1;
+                self.reset()?;
+            }
+            Action::Shove(dir) => self.shove = Some(([dir[0] * SHOVE_N, dir[1] * SHOVE_N], self.t + SHOVE_S)),
+            other => self.controls.apply(other),
+        }
+        Ok(true)
+    }
+
+    /// The torso-frame force of the shove under way, N.
+    pub fn shove(&self) -> Option<[f64; 2]> {
+        self.shove.map(|s| s.0)
+    }
+
+    /// One policy period; `wrench` is the mouse's (body, world-frame force and torque), if a body is dragged.
+    pub fn step(&mut self, wrench: Option<(usize, [f64; 6])>) -> Result<()> {
+        if let State::Fallen(at) = self.state {
+            if self.t - at >= LIE_S {
+                self.reset()?;
+            } else {
+                self.t += self.dt();
+            }
+            return Ok(());
+        }
+        self.env.set_command_override(Some(self.controls.command));
+        let mut p = *self.env.perturbation();
+        p.torso_force_local = match self.shove {
+            Some((f, until)) if self.t < until => [f[0], f[1], 0.0],
+            _ => {
+                self.shove = None;
+                [0.0; 3]
+            }
+        };
+        self.env.set_perturbation_struct(p);
+        self.env.set_body_wrench(wrench);
+        self.runner.act(&self.obs, &mut self.actions);
+        let out = self.env.step(&self.actions, &mut self.obs);
+        self.t += self.dt();
+        if out.diverged {
+            return Err(Error::Diverged(self.t));
+        }
+        let s = self.env.robot_state();
+        let a = self.dt() / SHOWN_VELOCITY_TAU_S;
+        for (v, now) in self.shown_velocity.iter_mut().zip([s.lin_vel[0], s.lin_vel[1], s.ang_vel[2]]) {
+            *v += a * (now - *v);
+        }
+        if out.done {
+            self.falls += 1;
+            self.state = State::Fallen(self.t);
+            self.env.set_body_wrench(None);
+        }
+        Ok(())
+    }
+
+    /// The overlay: labels and values.
+    pub fn overlay(&self, real_time: f64) -> (String, String) {
+        let c = self.controls.command;
+        let v = self.shown_velocity;
+        let mut labels = String::from("command (vx vy wz)\nmeasured");
+        let mut values = format!("{:+.2} {:+.2} {:+.2}\n{:+.2} {:+.2} {:+.2}", c[0], c[1], c[2], v[0], v[1], v[2]);
+        if let Some(s) = self.env.sim2sim() {
+            let e = s.latest().lin_vel;
+            labels.push_str("\nestimated (vx vy)");
+            values.push_str(&format!("\n{:+.2} {:+.2}", e[0], e[1]));
+        }
+        let state = match (self.state, self.controls.paused, self.shove) {
+            (State::Fallen(_), _, _) => "FELL".to_string(),
+            (_, true, _) => "paused".to_string(),
+            (_, _, Some((f, _))) => format!("shoved ({:+.0}, {:+.0}) N", f[0], f[1]),
+            _ => "walking".to_string(),
+        };
+        labels.push_str("\ntime\nspeed\nfalls / resets\nstate");
+        values.push_str(&format!(
+            "\n{:.1} s\n{:.3}x (wall {:.2}x)\n{} / {}\n{state}",
+            self.t,
+            self.controls.speed(),
+            real_time,
+            self.falls,
+            self.resets
+        ));
+        (labels, values)
+    }
+}
