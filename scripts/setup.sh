@@ -22,6 +22,14 @@ ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1 ' || need_pkgs+=(libegl1)
 ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0 ' || need_pkgs+=(libegl-mesa0)
 [ -e /usr/lib/x86_64-linux-gnu/dri/swrast_dri.so ] || [ -e /usr/lib/aarch64-linux-gnu/dri/swrast_dri.so ] ||
   need_pkgs+=(libgl1-mesa-dri)
+# The viewer (`topa view`): GLFW 3.4 is built from the glfw crate's sources (Debian ships 3.3): cmake and the X11
+# headers; the window's OpenGL is Mesa's GLX (libgl1). Xvfb: its test draws into a virtual display.
+command -v cmake >/dev/null 2>&1 || need_pkgs+=(cmake)
+for p in x11 xrandr xinerama xcursor xi xext; do
+  pkg-config --exists "$p" 2>/dev/null || need_pkgs+=("lib$p-dev")
+done
+ldconfig -p 2>/dev/null | grep -q 'libGL.so.1 ' || need_pkgs+=(libgl1)
+command -v Xvfb >/dev/null 2>&1 || need_pkgs+=(xvfb)
 # Multi-machine training (TOPA_MPI=1, the `mpi` cargo feature): Open MPI, and libclang for the binding's bindgen.
 if [ "${TOPA_MPI:-0}" = 1 ]; then
   command -v mpirun >/dev/null 2>&1 || need_pkgs+=(openmpi-bin)

@@ -15,6 +15,8 @@ pub(crate) fn run(a: ViewArgs) -> Result<()> {
     ensure!(a.command.len() == 3, "--command takes three numbers v_x,v_y,w_z, got {}", a.command.len());
     let command = [a.command[0], a.command[1], a.command[2]];
     let settings = a.sim.settings()?;
+    // From any folder (after `cargo install`): a relative policy path not found here is the repository's.
+    let policy = topa_env::assets::resolve_path(&a.policy.to_string_lossy());
     let gif = match (&a.gif, topa_view::has_display()) {
         (Some(g), _) => Some(g.clone()),
         (None, false) => {
@@ -37,14 +39,14 @@ pub(crate) fn run(a: ViewArgs) -> Result<()> {
             quality: Some(a.quality.into()),
             ..Default::default()
         };
-        let s = play::run(&a.policy, &o, &settings)?;
+        let s = play::run(&policy, &o, &settings)?;
         let fall = s.fell_at_s.map_or("no fall".to_string(), |t| format!("fell at {t:.1} s"));
         if let Some(v) = &s.video {
             println!(
                 "{}: {} frames, {} walking at ({:.2}, {:.2}, {:.2}), {fall}",
                 v.display(),
                 s.video_frames,
-                a.policy.display(),
+                policy.display(),
                 command[0],
                 command[1],
                 command[2]
@@ -52,8 +54,8 @@ pub(crate) fn run(a: ViewArgs) -> Result<()> {
         }
         return Ok(());
     }
-    let session = topa_view::Session::new(&a.policy, &settings, None, command)?;
-    let title = format!("topa view — {}", a.policy.display());
+    let session = topa_view::Session::new(&policy, &settings, None, command)?;
+    let title = format!("topa view — {}", policy.display());
     let mut viewer = topa_view::Viewer::open(session, (a.size.width, a.size.height), a.quality.into(), &title)?;
     let frames = viewer.run(a.frames)?;
     if let Some(p) = &a.screenshot {

@@ -90,3 +90,27 @@ fn without_gl_libraries_the_command_says_what_to_install() {
     assert!(!dir.join("x.gif").exists() && !dir.join("x.gif.tmp").exists());
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn without_a_display_view_writes_a_gif() {
+    let dir = std::env::temp_dir().join(format!("topa-view-gif-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_topa"))
+        .args(["view", "--seconds", "1", "--size", "160x120", "--policy"])
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/policies/CA/seed1.json"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let gif = dir.join("topa-walk.gif");
+    let mut d = gif::DecodeOptions::new().read_info(std::fs::File::open(&gif).unwrap()).unwrap();
+    let mut n = 0;
+    while d.read_next_frame().unwrap().is_some() {
+        n += 1;
+    }
+    let settle = topa_eval::settings::EvalSettings::default().settle_s;
+    assert_eq!(n, ((settle + 1.0) * 20.0).round() as usize, "the settling and 1 s at 20 frames a second");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -12,6 +12,8 @@ pub mod window;
 pub use error::{Error, Result};
 pub use session::Session;
 pub use window::Viewer;
+/// The window library, for callers that send the viewer events (tests, scripts).
+pub use glfw;
 
 /// Whether this process can open a window (an X11 or Wayland display is named).
 pub fn has_display() -> bool {

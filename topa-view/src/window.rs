@@ -191,6 +191,11 @@ impl Viewer {
         Ok(())
     }
 
+    /// The body the mouse is pulling, if any.
+    pub fn dragged(&self) -> Option<usize> {
+        self.perturb.body().filter(|_| self.perturb.dragging())
+    }
+
     /// The window's pixels as last drawn (RGB rows, top row first) and their size.
     pub fn pixels(&self) -> (Vec<u8>, (usize, usize)) {
         (self.renderer.read_pixels(), self.renderer.size())
