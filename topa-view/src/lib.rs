@@ -10,10 +10,10 @@ pub mod session;
 pub mod window;
 
 pub use error::{Error, Result};
-pub use session::Session;
-pub use window::Viewer;
 /// The window library, for callers that send the viewer events (tests, scripts).
 pub use glfw;
+pub use session::Session;
+pub use window::Viewer;
 
 /// Whether this process can open a window (an X11 or Wayland display is named).
 pub fn has_display() -> bool {
