@@ -54,7 +54,7 @@ pub(crate) fn run(a: ViewArgs) -> Result<()> {
         }
         return Ok(());
     }
-    let session = topa_view::Session::new(&policy, &settings, None, command)?;
+    let session = topa_view::Session::new(&policy, &settings, a.terrain.map(|k| (k, a.level as usize - 1)), command)?;
     let title = format!("topa view — {}", policy.display());
     let mut viewer = topa_view::Viewer::open(session, (a.size.width, a.size.height), a.quality.into(), &title)?;
     let frames = viewer.run(a.frames)?;

@@ -15,6 +15,12 @@ pub(crate) struct ViewArgs {
     /// Starting command v_x,v_y,w_z (m/s, m/s, rad/s); the keys change it.
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "0.4,0,0")]
     pub(crate) command: Vec<f64>,
+    /// Walk on a terrain tile of this kind (as `topa eval terrain` builds them) instead of flat ground.
+    #[arg(long)]
+    pub(crate) terrain: Option<topa_env::terrain::TileKind>,
+    /// The terrain tile's difficulty, 1 (easiest) to 5.
+    #[arg(long, requires = "terrain", value_parser = clap::value_parser!(u8).range(1..=5), default_value_t = 3)]
+    pub(crate) level: u8,
     /// Window size WIDTHxHEIGHT, pixels.
     #[arg(long, default_value = "960x640")]
     pub(crate) size: topa_eval::video::FrameSize,

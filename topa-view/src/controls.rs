@@ -59,9 +59,9 @@ pub fn action_of(key: Key) -> Option<Action> {
 
 /// The help overlay: keys, then what they do.
 pub const HELP: (&str, &str) = (
-    "W / S\nA / D\nQ / E\nSpace\narrows\nCtrl+drag\nP\n, / .\nR\nC\nmouse\nH\nEsc",
+    "W / S\nA / D\nQ / E\nSpace\narrows\nCtrl+drag\nP\n, / .\nR\nC\nmouse\ngamepad\nH\nEsc",
     "forward / back\nleft / right\nturn left / right\nstop\nshove the torso\ndrag a body\npause\nslower / faster\n\
-     reset\nfollow the robot\nrotate, move, zoom\nthis help\nquit",
+     reset\nfollow the robot\nrotate, move, zoom\nsticks drive, Y resets\nthis help\nquit",
 );
 
 /// What the keys have set.
@@ -83,6 +83,12 @@ impl Controls {
         let mut c = Controls { command, ranges, paused: false, speed: 3, follow: true, help: true };
         c.clamp();
         c
+    }
+
+    /// Sets the command (a gamepad's sticks), clamped to the ranges.
+    pub fn set_command(&mut self, c: [f64; 3]) {
+        self.command = c;
+        self.clamp();
     }
 
     /// Simulated seconds per wall-clock second.

@@ -5,9 +5,10 @@ use std::path::Path;
 use std::sync::Arc;
 
 use topa_env::policy_runner::PolicyRunner;
-use topa_env::terrain::TerrainConfig;
+use topa_env::terrain::TileKind;
 use topa_env::{assets, RobotEnv, Task};
 use topa_eval::settings::EvalSettings;
+use topa_eval::terrain;
 
 use crate::controls::{Action, Controls};
 use crate::error::{Error, Result};
@@ -20,6 +21,9 @@ pub const SHOVE_S: f64 = 1.0;
 const LIE_S: f64 = 1.0;
 /// Time constant of the measured velocity shown (the policy's gait oscillates within a step), s.
 const SHOWN_VELOCITY_TAU_S: f64 = 0.5;
+
+/// Difficulty levels of the terrain tiles, as `topa eval terrain` makes them by default.
+pub const TERRAIN_LEVELS: usize = 5;
 
 /// Why the robot was last put back.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,24 +52,33 @@ pub struct Session {
 }
 
 impl Session {
-    /// `policy` on its robot, evaluation settings `settings`, optionally on `terrain`, starting with `command`.
+    /// `policy` on its robot, evaluation settings `settings`, starting with `command`; on flat ground, or on a
+    /// tile of the terrain evaluation's (`topa eval terrain`): its kind and level (0 the easiest of
+    /// `TERRAIN_LEVELS`).
     pub fn new(
         policy: &Path,
         settings: &EvalSettings,
-        terrain: Option<TerrainConfig>,
+        tile: Option<(TileKind, usize)>,
         command: [f64; 3],
     ) -> Result<Session> {
         let runner = PolicyRunner::load(policy, "policy")?;
         let mut cfg = settings.env_config(&runner)?;
-        if let Some(t) = terrain {
-            cfg.terrain = t;
+        if let Some((kind, level)) = tile {
+            let p = terrain::Protocol { levels: TERRAIN_LEVELS, types: vec![kind], ..Default::default() };
+            if level >= TERRAIN_LEVELS {
+                return Err(Error::Level(level + 1));
+            }
+            cfg.terrain = terrain::evaluation_terrain(runner.training_config(), &p);
         }
         // The viewer decides when a fallen robot is put back; it walks as long as the user watches.
         cfg.episode_length_s = 1.0e9;
         let (_, model) = assets::load_robot(&cfg)?;
         let c = &runner.training_config().commands;
         let ranges = [c.lin_vel_x, c.lin_vel_y, c.ang_vel_z];
-        let env = RobotEnv::new(model, Arc::new(cfg), settings.seed, 0)?;
+        let mut env = RobotEnv::new(model, Arc::new(cfg), settings.seed, 0)?;
+        if let Some((_, level)) = tile {
+            env.set_terrain_tile(Some((level, 0)))?;
+        }
         let obs = vec![0.0; env.obs_dim()];
         let mut s = Session {
             env,

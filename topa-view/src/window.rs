@@ -8,7 +8,7 @@ use glfw::{Context, MouseButton, WindowEvent};
 use mujoco::interact::{MouseMove, Perturb};
 use mujoco::render::{Corner, Quality, Renderer};
 
-use crate::controls::{action_of, HELP};
+use crate::controls::{action_of, Action, HELP};
 use crate::error::{Error, Result};
 use crate::session::Session;
 
@@ -37,6 +37,8 @@ pub struct Viewer {
     /// Simulated per wall-clock seconds over the last frames.
     real_time: f64,
     quit: bool,
+    /// The gamepad's messages, where one can be read (gilrs).
+    pad: Option<std::sync::mpsc::Receiver<topa_control::operator::OperatorMessage>>,
 }
 
 impl Viewer {
@@ -56,6 +58,7 @@ impl Viewer {
         let mut renderer = Renderer::on_window(env.data().model_arc().clone(), quality)?;
         let camera_distance = 1.6 * topa_eval::video::camera_scale(env);
         renderer.track(env.indices().torso_body, camera_distance, 150.0, -12.0);
+        let pad = topa_tools::operator_pad::spawn(session.controls.ranges);
         Ok(Viewer {
             renderer,
             perturb: Perturb::default(),
@@ -70,6 +73,7 @@ impl Viewer {
             owed_s: 0.0,
             real_time: 1.0,
             quit: false,
+            pad,
         })
     }
 
@@ -90,6 +94,14 @@ impl Viewer {
         let events: Vec<_> = glfw::flush_messages(&self.events).map(|(_, e)| e).collect();
         for e in events {
             self.handle(e)?;
+        }
+        let pad: Vec<_> = self.pad.as_ref().map_or(Vec::new(), |rx| rx.try_iter().collect());
+        for m in pad {
+            // The sticks set the command (they send only when they move, so the keys keep theirs between).
+            self.session.controls.set_command(m.command);
+            if m.reset {
+                self.session.apply(Action::Reset)?;
+            }
         }
         let now = Instant::now();
         let wall = self.last.map_or(0.0, |l| now.duration_since(l).as_secs_f64());
