@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{ensure, Result};
 use topa_eval::play;
+use topa_view::session::Ground;
 
 use crate::cli::view::ViewArgs;
 
@@ -54,7 +55,12 @@ pub(crate) fn run(a: ViewArgs) -> Result<()> {
         }
         return Ok(());
     }
-    let session = topa_view::Session::new(&policy, &settings, a.terrain.map(|k| (k, a.level as usize - 1)), command)?;
+    let ground = match (&a.course, a.terrain) {
+        (Some(c), _) => Ground::Course(c.clone(), a.speed),
+        (None, Some(k)) => Ground::Tile(k, a.level as usize - 1),
+        (None, None) => Ground::Flat,
+    };
+    let session = topa_view::Session::new(&policy, &settings, &ground, command)?;
     let title = format!("topa view — {}", policy.display());
     let mut viewer = topa_view::Viewer::open(session, (a.size.width, a.size.height), a.quality.into(), &title)?;
     let frames = viewer.run(a.frames)?;

@@ -7,6 +7,7 @@ use std::process::{Child, Command, Stdio};
 
 use topa_eval::settings::EvalSettings;
 use topa_view::glfw::{Action, Key, Modifiers, MouseButton, WindowEvent};
+use topa_view::session::Ground;
 use topa_view::{Session, Viewer};
 
 fn policy() -> PathBuf {
@@ -61,7 +62,7 @@ fn the_viewer_draws_the_robot_and_obeys_keys_and_mouse() {
     let (_x, display) = VirtualDisplay::start();
     // SAFETY: set before any thread of this test process reads the environment (one test in this binary).
     unsafe { std::env::set_var("DISPLAY", &display) };
-    let session = Session::new(&policy(), &EvalSettings::default(), None, [0.0; 3]).unwrap();
+    let session = Session::new(&policy(), &EvalSettings::default(), &Ground::Flat, [0.0; 3]).unwrap();
     let mut v = Viewer::open(session, (480, 360), mujoco::render::Quality::Fast, "test").unwrap();
 
     // Standing on a zero command for 2 s.

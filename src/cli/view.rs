@@ -15,6 +15,12 @@ pub(crate) struct ViewArgs {
     /// Starting command v_x,v_y,w_z (m/s, m/s, rad/s); the keys change it.
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "0.4,0,0")]
     pub(crate) command: Vec<f64>,
+    /// Walk a course (e.g. assets/courses/indoor.toml), its operator driving until a command key takes over.
+    #[arg(long, conflicts_with = "terrain")]
+    pub(crate) course: Option<PathBuf>,
+    /// The course operator's top speed, m/s.
+    #[arg(long, requires = "course", value_parser = positive, default_value_t = 0.5)]
+    pub(crate) speed: f64,
     /// Walk on a terrain tile of this kind (as `topa eval terrain` builds them) instead of flat ground.
     #[arg(long)]
     pub(crate) terrain: Option<topa_env::terrain::TileKind>,

@@ -246,6 +246,11 @@ impl CourseFollower {
         self.driver.command(course, self.progress, [st.base_pos[0], st.base_pos[1]], st.yaw)
     }
 
+    /// How far along the path the robot has come, m.
+    pub fn progress_m(&self) -> f64 {
+        self.progress
+    }
+
     /// Whether the run reached the goal or its time limit.
     pub fn done(&self) -> bool {
         self.done

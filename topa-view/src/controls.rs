@@ -27,6 +27,8 @@ pub enum Action {
     Shove([f64; 2]),
     /// Camera: follow the torso, or stay where the mouse put it.
     Follow,
+    /// On a course: the course's operator drives, or the keys do.
+    Autopilot,
     Help,
     Quit,
 }
@@ -51,6 +53,7 @@ pub fn action_of(key: Key) -> Option<Action> {
         Key::Left => Shove([0.0, 1.0]),
         Key::Right => Shove([0.0, -1.0]),
         Key::C => Follow,
+        Key::G => Autopilot,
         Key::H | Key::F1 => Help,
         Key::Escape => Quit,
         _ => return None,
@@ -59,9 +62,9 @@ pub fn action_of(key: Key) -> Option<Action> {
 
 /// The help overlay: keys, then what they do.
 pub const HELP: (&str, &str) = (
-    "W / S\nA / D\nQ / E\nSpace\narrows\nCtrl+drag\nP\n, / .\nR\nC\nmouse\ngamepad\nH\nEsc",
+    "W / S\nA / D\nQ / E\nSpace\narrows\nCtrl+drag\nP\n, / .\nR\nC\nG\nmouse\ngamepad\nH\nEsc",
     "forward / back\nleft / right\nturn left / right\nstop\nshove the torso\ndrag a body\npause\nslower / faster\n\
-     reset\nfollow the robot\nrotate, move, zoom\nsticks drive, Y resets\nthis help\nquit",
+     reset\nfollow the robot\ncourse: operator / you\nrotate, move, zoom\nsticks drive, Y resets\nthis help\nquit",
 );
 
 /// What the keys have set.
@@ -110,7 +113,7 @@ impl Controls {
             Action::Faster => self.speed = (self.speed + 1).min(SPEEDS.len() - 1),
             Action::Follow => self.follow = !self.follow,
             Action::Help => self.help = !self.help,
-            Action::Reset | Action::Shove(_) | Action::Quit => {}
+            Action::Reset | Action::Shove(_) | Action::Autopilot | Action::Quit => {}
         }
         self.clamp();
     }

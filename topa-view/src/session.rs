@@ -1,8 +1,13 @@
 //! The simulation behind the window: one policy on its robot under the evaluation settings, stepped on demand,
 //! with the keys' command, shoves and the mouse's wrench applied, and a fall answered by a reset (counted).
 
-use std::path::Path;
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
+
+use topa_env::course::Course;
+use topa_eval::course::CourseFollower;
+use topa_eval::driver::Driver;
 
 use topa_env::policy_runner::PolicyRunner;
 use topa_env::terrain::TileKind;
@@ -21,6 +26,26 @@ pub const SHOVE_S: f64 = 1.0;
 const LIE_S: f64 = 1.0;
 /// Time constant of the measured velocity shown (the policy's gait oscillates within a step), s.
 const SHOWN_VELOCITY_TAU_S: f64 = 0.5;
+
+/// Where the robot walks.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Ground {
+    Flat,
+    /// A tile of the terrain evaluation's (`topa eval terrain`): its kind and level (0 the easiest of
+    /// `TERRAIN_LEVELS`).
+    Tile(TileKind, usize),
+    /// A course (`topa eval course`), the course's operator driving at this top speed (m/s) until a key takes
+    /// over.
+    Course(PathBuf, f64),
+}
+
+/// A course under way: the map, its operator, and whether the operator drives.
+struct CourseDrive {
+    course: Course,
+    follower: CourseFollower,
+    walls: HashSet<usize>,
+    autopilot: bool,
+}
 
 /// Difficulty levels of the terrain tiles, as `topa eval terrain` makes them by default.
 pub const TERRAIN_LEVELS: usize = 5;
@@ -49,36 +74,50 @@ pub struct Session {
     shove: Option<([f64; 2], f64)>,
     /// The measured (v_x, v_y, w_z), torso frame, low-pass filtered for display.
     shown_velocity: [f64; 3],
+    course: Option<CourseDrive>,
+    /// Puts the course's operator back on the course after a key took over (the course follower's `G`).
+    interventions: usize,
 }
 
 impl Session {
-    /// `policy` on its robot, evaluation settings `settings`, starting with `command`; on flat ground, or on a
-    /// tile of the terrain evaluation's (`topa eval terrain`): its kind and level (0 the easiest of
-    /// `TERRAIN_LEVELS`).
-    pub fn new(
-        policy: &Path,
-        settings: &EvalSettings,
-        tile: Option<(TileKind, usize)>,
-        command: [f64; 3],
-    ) -> Result<Session> {
+    /// `policy` on its robot on `ground`, evaluation settings `settings`, starting with `command`.
+    pub fn new(policy: &Path, settings: &EvalSettings, ground: &Ground, command: [f64; 3]) -> Result<Session> {
         let runner = PolicyRunner::load(policy, "policy")?;
         let mut cfg = settings.env_config(&runner)?;
-        if let Some((kind, level)) = tile {
-            let p = terrain::Protocol { levels: TERRAIN_LEVELS, types: vec![kind], ..Default::default() };
-            if level >= TERRAIN_LEVELS {
-                return Err(Error::Level(level + 1));
-            }
-            cfg.terrain = terrain::evaluation_terrain(runner.training_config(), &p);
-        }
         // The viewer decides when a fallen robot is put back; it walks as long as the user watches.
         cfg.episode_length_s = 1.0e9;
-        let (_, model) = assets::load_robot(&cfg)?;
+        let mut course = None;
+        let model = match ground {
+            Ground::Flat => assets::load_robot(&cfg)?.1,
+            Ground::Tile(kind, level) => {
+                if *level >= TERRAIN_LEVELS {
+                    return Err(Error::Level(level + 1));
+                }
+                let p = terrain::Protocol { levels: TERRAIN_LEVELS, types: vec![*kind], ..Default::default() };
+                cfg.terrain = terrain::evaluation_terrain(runner.training_config(), &p);
+                assets::load_robot(&cfg)?.1
+            }
+            Ground::Course(file, speed) => {
+                let map = Course::load(&assets::resolve_path(&file.to_string_lossy()))?;
+                let (model, friction) = map.compile(runner.robot())?;
+                // The course's operator judges falls (as `topa eval course` does).
+                cfg.termination.enabled = false;
+                let follower = CourseFollower::new(Driver::new(*speed, &cfg.commands)?, runner.robot().n_motors());
+                let walls = topa_eval::course::wall_geoms(&model);
+                course = Some((CourseDrive { course: map, follower, walls, autopilot: true }, friction));
+                model
+            }
+        };
         let c = &runner.training_config().commands;
         let ranges = [c.lin_vel_x, c.lin_vel_y, c.ang_vel_z];
         let mut env = RobotEnv::new(model, Arc::new(cfg), settings.seed, 0)?;
-        if let Some((_, level)) = tile {
-            env.set_terrain_tile(Some((level, 0)))?;
+        if let Ground::Tile(_, level) = ground {
+            env.set_terrain_tile(Some((*level, 0)))?;
         }
+        let course = course.map(|(drive, friction)| {
+            env.set_ground_friction(Some(Arc::new(friction)));
+            drive
+        });
         let obs = vec![0.0; env.obs_dim()];
         let mut s = Session {
             env,
@@ -92,6 +131,8 @@ impl Session {
             resets: 0,
             shove: None,
             shown_velocity: [0.0; 3],
+            course,
+            interventions: 0,
         };
         s.reset()?;
         Ok(s)
@@ -125,7 +166,13 @@ impl Session {
     }
 
     fn reset(&mut self) -> Result<()> {
-        self.env.reset(&mut self.obs)?;
+        match &self.course {
+            Some(c) => {
+                let p = c.course.start();
+                self.env.reset_at(&mut self.obs, [p.xy[0], p.xy[1], p.heading])?;
+            }
+            None => self.env.reset(&mut self.obs)?,
+        }
         self.env.set_perturbation_struct(Default::default());
         self.t = 0.0;
         self.state = State::Walking;
@@ -143,7 +190,18 @@ impl Session {
                 self.reset()?;
             }
             Action::Shove(dir) => self.shove = Some(([dir[0] * SHOVE_N, dir[1] * SHOVE_N], self.t + SHOVE_S)),
-            other => self.controls.apply(other),
+            Action::Autopilot => {
+                if let Some(c) = &mut self.course {
+                    c.autopilot = !c.autopilot;
+                }
+            }
+            other => {
+                // A key that commands the robot takes it over from the course's operator.
+                if let (Some(c), Action::Command { .. } | Action::Stop) = (&mut self.course, other) {
+                    c.autopilot = false;
+                }
+                self.controls.apply(other)
+            }
         }
         Ok(true)
     }
@@ -162,6 +220,10 @@ impl Session {
                 self.t += self.dt();
             }
             return Ok(());
+        }
+        if let Some(c) = self.course.as_ref().filter(|c| c.autopilot) {
+            let cmd = c.follower.command(&c.course, &self.env);
+            self.controls.set_command(cmd);
         }
         self.env.set_command_override(Some(self.controls.command));
         let mut p = *self.env.perturbation();
@@ -184,6 +246,19 @@ impl Session {
         let a = self.dt() / SHOWN_VELOCITY_TAU_S;
         for (v, now) in self.shown_velocity.iter_mut().zip([s.lin_vel[0], s.lin_vel[1], s.ang_vel[2]]) {
             *v += a * (now - *v);
+        }
+        if let Some(c) = &mut self.course {
+            // The course's operator: a fall, a wall or no progress puts the robot back on the path.
+            let falls = c.follower.observe(&c.course, &self.env, &c.walls, self.t);
+            if let Some(pose) = falls.filter(|_| !c.follower.done()) {
+                self.interventions += 1;
+                self.env.reset_at(&mut self.obs, pose)?;
+            }
+            if c.follower.done() && c.autopilot {
+                // At the goal: the operator stops.
+                c.autopilot = false;
+                self.controls.command = [0.0; 3];
+            }
         }
         if out.done {
             self.falls += 1;
@@ -210,6 +285,12 @@ impl Session {
             (_, _, Some((f, _))) => format!("shoved ({:+.0}, {:+.0}) N", f[0], f[1]),
             _ => "walking".to_string(),
         };
+        if let Some(c) = &self.course {
+            labels.push_str("\ncourse\ninterventions");
+            let who = if c.autopilot { "operator (G: you)" } else { "you (G: operator)" };
+            let (done, length) = (c.follower.progress_m(), c.course.path.length());
+            values.push_str(&format!("\n{done:.0} / {length:.0} m, {who}\n{}", self.interventions));
+        }
         labels.push_str("\ntime\nspeed\nfalls / resets\nstate");
         values.push_str(&format!(
             "\n{:.1} s\n{:.3}x (wall {:.2}x)\n{} / {}\n{state}",
