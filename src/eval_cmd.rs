@@ -125,7 +125,7 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             println!("{}", terrain::markdown(&result));
             println!("heatmap: {}", png.display());
         }
-        EvalCmd::Progress { runs, every, seconds, starts, push_step } => {
+        EvalCmd::Progress { runs, every, seconds, starts, step: push_step } => {
             let p = progress::Protocol { every, seconds, starts, push_step };
             let results = runs.iter().map(|r| progress::run(r, p, &s, &c.out)).collect::<Result<Vec<_>, _>>()?;
             report::write_json(&c.out, "progress.json", &results)?;

@@ -39,14 +39,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Ablate { merge, field, terrain, physics, common, .. } if !merge.is_empty() => {
             groups_cmd::merge_ablations(&merge, [field.as_deref(), terrain.as_deref(), physics.as_deref()], common)
         }
-        Cmd::Ablate {
-            groups, full, push_range, push_step, tracking_starts, field, terrain, physics, common, ..
-        } => {
+        Cmd::Ablate { groups, full, range, step, starts, field, terrain, physics, common, .. } => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let mut extent = if full { Extent::full() } else { Extent::quick() };
-            extent.push_range_n = push_range.unwrap_or(extent.push_range_n);
-            extent.push_step_n = push_step.unwrap_or(extent.push_step_n);
-            extent.tracking_starts = tracking_starts.unwrap_or(extent.tracking_starts);
+            extent.push_range_n = range.unwrap_or(extent.push_range_n);
+            extent.push_step_n = step.unwrap_or(extent.push_step_n);
+            extent.tracking_starts = starts.unwrap_or(extent.tracking_starts);
             groups_cmd::run_ablate(groups, extent, [field.as_deref(), terrain.as_deref(), physics.as_deref()], common)
         }
         Cmd::Physics { merge, protocol, common, .. } if !merge.is_empty() => {
@@ -190,7 +188,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 mpirun: &mpirun,
             })?)
         }
-        Cmd::Bench(BenchCmd::Memory { envs, steps, policy, terrain }) => {
+        Cmd::Bench(BenchCmd::Memory { envs, steps, policy, rough: terrain }) => {
             Ok(bench::memory::run(envs, steps, &policy, terrain)?)
         }
         Cmd::Bench(BenchCmd::Train { config, threads, envs, iterations, warmup, integrator, rounds, worker }) => {
@@ -203,7 +201,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 Ok(bench::train::run(&a)?)
             }
         }
-        Cmd::Bench(BenchCmd::Env { model, envs, threads, integrator, seconds, rounds, terrain, policy }) => {
+        Cmd::Bench(BenchCmd::Env { model, envs, threads, integrator, seconds, rounds, rough: terrain, policy }) => {
             let (kind, policy) = (model, policy.as_deref());
             Ok(bench::env::run(&bench::env::EnvBench {
                 kind,

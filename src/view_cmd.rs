@@ -55,7 +55,7 @@ pub(crate) fn run(a: ViewArgs) -> Result<()> {
         }
         return Ok(());
     }
-    let ground = match (&a.course, a.terrain) {
+    let ground = match (&a.course, a.tile) {
         (Some(c), _) => Ground::Course(c.clone(), a.speed),
         (None, Some(k)) => Ground::Tile(k, a.level as usize - 1),
         (None, None) => Ground::Flat,

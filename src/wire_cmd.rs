@@ -32,8 +32,8 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
         ),
         None => None,
     };
-    let carriage = Carriage::open(&a.carriage, a.listen, a.controller)?;
-    let link = carriage.link(names::SENSORS, Some(names::COMMAND), a.listen, a.controller)?;
+    let carriage = Carriage::open(&a.carriage, a.listen, a.peer)?;
+    let link = carriage.link(names::SENSORS, Some(names::COMMAND), a.listen, a.peer)?;
     let mut robot = match &course {
         Some(course) => SimRobot::on_course(&a.policy, course, &settings, &rc, link)?,
         None => SimRobot::for_policy(&a.policy, &settings, &rc, link)?,
@@ -45,7 +45,7 @@ pub(crate) fn sim_robot(a: SimRobotArgs) -> Result<()> {
         a.sim2sim,
         1.0 / physics_dt,
         period_s * 1e3,
-        a.controller
+        a.peer
     );
     if let Some(course) = &course {
         let op = Operator::over(carriage.link(names::OPERATOR, None, a.operator_listen, a.operator)?);
@@ -84,9 +84,8 @@ pub(crate) fn control(a: ControlArgs) -> Result<()> {
     anyhow::ensure!(a.command.len() == 3, "--command takes three values, v_x,v_y,w_z (e.g. 0.5,0,0)");
     let mut c = Controller::load(&a.controller)?;
     let (n, period) = (c.spec().n_motors(), c.spec().control_period_s);
-    let carriage = Carriage::open(&a.carriage, a.listen, a.robot)?;
-    let mut robot =
-        RemoteRobot::over(carriage.link(names::COMMAND, Some(names::SENSORS), a.listen, a.robot)?, c.spec());
+    let carriage = Carriage::open(&a.carriage, a.listen, a.peer)?;
+    let mut robot = RemoteRobot::over(carriage.link(names::COMMAND, Some(names::SENSORS), a.listen, a.peer)?, c.spec());
     let mut operator = OperatorLink::over(carriage.link(
         names::OPERATOR_REPLY,
         Some(names::OPERATOR),
@@ -102,7 +101,7 @@ pub(crate) fn control(a: ControlArgs) -> Result<()> {
         a.listen,
         n,
         1.0 / period,
-        a.robot,
+        a.peer,
         a.operator_listen,
         a.operator
     );

@@ -28,3 +28,56 @@ fn every_flag_has_a_help_line() {
     walk(&cli::Cli::command(), "topa", &mut missing);
     assert!(missing.is_empty(), "{} flags without a help line:\n{}", missing.len(), missing.join("\n"));
 }
+
+/// Every shown flag: (command path, long name, value type, takes a value).
+fn flags(c: &clap::Command, path: &str, out: &mut Vec<(String, String, String, bool)>) {
+    for a in c.get_arguments().filter(|a| !a.is_hide_set()) {
+        if let Some(long) = a.get_long() {
+            let takes = a.get_action().takes_values();
+            out.push((path.to_string(), long.to_string(), format!("{:?}", a.get_value_parser().type_id()), takes));
+        }
+    }
+    for s in c.get_subcommands() {
+        flags(s, &format!("{path} {}", s.get_name()), out);
+    }
+}
+
+fn names(c: &clap::Command, out: &mut std::collections::BTreeSet<String>) {
+    for s in c.get_subcommands() {
+        out.insert(s.get_name().to_string());
+        names(s, out);
+    }
+}
+
+#[test]
+fn one_concept_one_flag_name_across_subcommands() {
+    let root = cli::Cli::command();
+    let mut all = Vec::new();
+    flags(&root, "topa", &mut all);
+    let mut problems = Vec::new();
+    // The same name takes the same kind of value everywhere (a count is a count, a duration a number).
+    let mut by_name: std::collections::BTreeMap<&str, Vec<&(String, String, String, bool)>> = Default::default();
+    for f in &all {
+        by_name.entry(f.1.as_str()).or_default().push(f);
+    }
+    for (name, uses) in &by_name {
+        let first = uses[0];
+        for u in &uses[1..] {
+            if (&u.2, u.3) != (&first.2, first.3) {
+                problems.push(format!("--{name}: one kind of value in `{}`, another in `{}`", first.0, u.0));
+            }
+        }
+    }
+    // A flag is not another command's flag renamed with that command's name in front (`--push-range` where
+    // `topa eval push` says `--range`): a command that runs several experiments takes their own names.
+    let mut commands = Default::default();
+    names(&root, &mut commands);
+    for f in &all {
+        if let Some((prefix, rest)) = f.1.split_once('-') {
+            if commands.contains(prefix) && by_name.get(rest).is_some_and(|u| u.iter().any(|g| g.2 == f.2)) {
+                problems.push(format!("`{}` --{}: `--{rest}` elsewhere names the same thing", f.0, f.1));
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{} inconsistent flags:\n{}", problems.len(), problems.join("\n"));
+}

@@ -21,5 +21,5 @@ fn negative_durations_and_zero_counts_are_refused_naming_the_flag() {
     refused(&["eval", "noise", "--policy", p, "--runs", "0"], "--runs");
     refused(&["eval", "endurance", "--policy", p, "--minutes=-1"], "--minutes");
     refused(&["eval", "physics", "--policy", p, "--push-force", "nan"], "--push-force");
-    refused(&["ablate", "--c", "assets/policies/C", "--tracking-starts", "0"], "--tracking-starts");
+    refused(&["ablate", "--c", "assets/policies/C", "--starts", "0"], "--starts");
 }

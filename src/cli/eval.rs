@@ -182,8 +182,8 @@ pub(crate) enum EvalCmd {
         starts: usize,
         /// Also the standing push grid to ±30 N in steps of this many N (10: the quick protocol's 7×7); a run with
         /// the adversary then has the C+A bar on its mean time to fall.
-        #[arg(long, value_parser = crate::cli::values::positive)]
-        push_step: Option<f64>,
+        #[arg(long, alias = "push-step", value_parser = crate::cli::values::positive)]
+        step: Option<f64>,
     },
     /// The six tracking commands and the centre push cells under perturbations of the simulator (contact model,
     /// solver, integrator, timestep, friction, motors, torso, soles, latency), one at a time and combined: per

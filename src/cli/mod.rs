@@ -71,19 +71,19 @@ pub(crate) enum Cmd {
         full: bool,
         /// Push grid half-range, N (the paper's: 30). A stronger grid separates robust policies that the paper's
         /// grid cannot (it nearly saturates for ours); the paper's numbers beside it are then for ±30 N.
-        #[arg(long, value_parser = crate::cli::values::positive)]
-        push_range: Option<f64>,
+        #[arg(long, alias = "push-range", value_parser = crate::cli::values::positive)]
+        range: Option<f64>,
         /// Push grid step, N (the paper's: 5; the quick protocol's: 10).
-        #[arg(long, value_parser = crate::cli::values::positive)]
-        push_step: Option<f64>,
+        #[arg(long, alias = "push-step", value_parser = crate::cli::values::positive)]
+        step: Option<f64>,
         /// Initial states each tracking command runs from (full protocol: 10, quick: 3): a policy that sometimes
         /// stands still on a command from rest shows as a count, not as one reset's coin flip.
-        #[arg(long, value_parser = crate::cli::values::at_least_one)]
-        tracking_starts: Option<usize>,
+        #[arg(long, alias = "tracking-starts", value_parser = crate::cli::values::at_least_one)]
+        starts: Option<usize>,
         /// Instead of running policies: join the ablation.json files of earlier runs (same protocol and settings;
         /// e.g. one per policy, run as each training ended) into one report with the groups' mean ± sd; one file
         /// renders that report again (with --field: the real-world test attached).
-        #[arg(long, num_args = 1.., conflicts_with_all = ["o", "c", "ca", "full", "push_range", "push_step", "tracking_starts"])]
+        #[arg(long, num_args = 1.., conflicts_with_all = ["o", "c", "ca", "full", "range", "step", "starts"])]
         merge: Vec<PathBuf>,
         /// Add the real-world test of these policies (a field.json written by `topa field`) to the report.
         #[arg(long)]
@@ -282,7 +282,7 @@ pub(crate) enum BenchCmd {
         /// Also the same envs on rough terrain (`[env.terrain]` defaults), as a ratio to the flat floor, with
         /// MuJoCo's box contacts and with the vertex contacts.
         #[arg(long)]
-        terrain: bool,
+        rough: bool,
         /// The envs act with this policy (walking, under its training config) instead of random actions (which
         /// fall); inference is not timed.
         #[arg(long)]
@@ -318,7 +318,7 @@ pub(crate) enum BenchCmd {
         policy: PathBuf,
         /// On the default rough terrain (`[env.terrain]`) instead of the flat floor.
         #[arg(long)]
-        terrain: bool,
+        rough: bool,
     },
     /// Training on N MPI ranks vs one rank with the same threads: samples/s, communication share and bytes per
     /// iteration (needs a build with `--features mpi` and Open MPI's mpirun).

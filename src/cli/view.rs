@@ -16,16 +16,16 @@ pub(crate) struct ViewArgs {
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "0.4,0,0")]
     pub(crate) command: Vec<f64>,
     /// Walk a course (e.g. assets/courses/indoor.toml), its operator driving until a command key takes over.
-    #[arg(long, conflicts_with = "terrain")]
+    #[arg(long, conflicts_with = "tile")]
     pub(crate) course: Option<PathBuf>,
     /// The course operator's top speed, m/s.
     #[arg(long, requires = "course", value_parser = positive, default_value_t = 0.5)]
     pub(crate) speed: f64,
     /// Walk on a terrain tile of this kind (as `topa eval terrain` builds them) instead of flat ground.
     #[arg(long)]
-    pub(crate) terrain: Option<topa_env::terrain::TileKind>,
+    pub(crate) tile: Option<topa_env::terrain::TileKind>,
     /// The terrain tile's difficulty, 1 (easiest) to 5.
-    #[arg(long, requires = "terrain", value_parser = clap::value_parser!(u8).range(1..=5), default_value_t = 3)]
+    #[arg(long, requires = "tile", value_parser = clap::value_parser!(u8).range(1..=5), default_value_t = 3)]
     pub(crate) level: u8,
     /// Window size WIDTHxHEIGHT, pixels.
     #[arg(long, default_value = "960x640")]

@@ -30,9 +30,9 @@ pub(crate) struct SimRobotArgs {
     /// This robot's socket.
     #[arg(long, default_value = "127.0.0.1:7700")]
     pub(crate) listen: SocketAddr,
-    /// The controller's socket.
-    #[arg(long, default_value = "127.0.0.1:7701")]
-    pub(crate) controller: SocketAddr,
+    /// The other side's socket: the controller's.
+    #[arg(long, alias = "controller", default_value = "127.0.0.1:7701")]
+    pub(crate) peer: SocketAddr,
     #[command(flatten)]
     pub(crate) carriage: CarriageArgs,
     /// Share of datagrams lost, each direction (0–1).
@@ -98,9 +98,9 @@ pub(crate) struct ControlArgs {
     /// This controller's socket.
     #[arg(long, default_value = "127.0.0.1:7701")]
     pub(crate) listen: SocketAddr,
-    /// The robot's socket.
-    #[arg(long, default_value = "127.0.0.1:7700")]
-    pub(crate) robot: SocketAddr,
+    /// The other side's socket: the robot's.
+    #[arg(long, alias = "robot", default_value = "127.0.0.1:7700")]
+    pub(crate) peer: SocketAddr,
     #[command(flatten)]
     pub(crate) carriage: CarriageArgs,
     /// The socket operator messages come to (velocity command, stop, reset, start).

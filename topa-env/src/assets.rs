@@ -15,7 +15,7 @@ use crate::topa::ModelKind;
 pub fn repo_dir() -> PathBuf {
     match std::env::var_os("TOPA_ASSETS") {
         Some(p) => PathBuf::from(p).join(".."),
-        None => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(".."),
+        None => Path::new(env!("CARGO_MANIFEST_DIR")).parent().map_or_else(|| PathBuf::from(".."), Path::to_path_buf),
     }
 }
 

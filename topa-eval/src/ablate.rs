@@ -59,13 +59,10 @@ impl Extent {
     }
     /// Refuses a grid that cannot be laid out (push::axis's rules), naming the flags, before any policy runs.
     pub fn check(&self) -> Result<()> {
-        ensure!(
-            self.tracking_starts >= 1,
-            "--tracking-starts must be at least 1 (initial states per tracking command)"
-        );
-        push::axis(self.push_range_n, self.push_step_n).map(|_| ()).map_err(|e| {
-            Error::file(format!("--push-range {} N with --push-step {} N", self.push_range_n, self.push_step_n), e)
-        })
+        ensure!(self.tracking_starts >= 1, "--starts must be at least 1 (initial states per tracking command)");
+        push::axis(self.push_range_n, self.push_step_n)
+            .map(|_| ())
+            .map_err(|e| Error::file(format!("--range {} N with --step {} N", self.push_range_n, self.push_step_n), e))
     }
     /// The paper's push grid (±30 N), whatever its step: its mean t_fall values are comparable with ours.
     pub fn paper_push_range(&self) -> bool {
@@ -364,15 +361,15 @@ mod tests {
             "13×13 push grid to ±30 N, 100 noise runs of 20 s per level, 10 starts per tracking command"
         );
         let no_start = Extent { tracking_starts: 0, ..Extent::full() };
-        assert!(no_start.check().unwrap_err().to_string().contains("--tracking-starts"));
+        assert!(no_start.check().unwrap_err().to_string().contains("--starts"));
         assert!(Extent::quick().describe().starts_with("7×7 push grid to ±30 N"));
         let strong = Extent { push_range_n: 60.0, push_step_n: 10.0, ..Extent::full() };
         assert!(!strong.paper_push_range());
         assert!(strong.describe().starts_with("13×13 push grid to ±60 N"));
         let zero_step = Extent { push_step_n: 0.0, ..Extent::full() };
-        assert!(zero_step.check().unwrap_err().to_string().contains("--push-step"));
+        assert!(zero_step.check().unwrap_err().to_string().contains("--step"));
         let negative = Extent { push_range_n: -1.0, ..Extent::full() };
-        assert!(negative.check().unwrap_err().to_string().contains("--push-range"));
+        assert!(negative.check().unwrap_err().to_string().contains("--range"));
         let uneven = Extent { push_range_n: 25.0, push_step_n: 10.0, ..Extent::full() };
         assert!(crate::error::chain(&uneven.check().unwrap_err()).contains("not a multiple"));
     }

@@ -189,7 +189,7 @@ pub fn run(
     transient_s: f64,
     starts: usize,
 ) -> Result<Vec<TrackingRow>> {
-    ensure!(starts >= 1, "tracking needs at least one start per command (--tracking-starts ≥ 1)");
+    ensure!(starts >= 1, "tracking needs at least one start per command (--starts ≥ 1)");
     let mut cfg = settings.env_config(runner)?;
     cfg.termination.enabled = false; // the robot stays on the floor after a fall and the window goes on
     let k = COMMANDS.len();
