@@ -24,8 +24,8 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             if c.json {
                 return print_json(&rows);
             }
-            println!("{}", report::tracking_markdown(&[("ours", &rows)], Some(&paper)));
-            println!("{}", report::gait_markdown(&[("ours", &rows)]));
+            println!("{}", report::tracking_markdown(&[(group_of(&r), &rows)], Some(&paper)));
+            println!("{}", report::gait_markdown(&[(group_of(&r), &rows)]));
         }
         EvalCmd::Push { policy, range, step, window, video, video_force } => {
             if video.video.is_some() {
@@ -57,7 +57,7 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             if c.json {
                 return print_json(&grid);
             }
-            println!("{}", report::push_markdown(&[("ours", &grid)], Some(&paper)));
+            println!("{}", report::push_markdown(&[(group_of(&r), &grid)], Some(&paper)));
             println!("heatmap: {}", c.out.join("push_heatmap.png").display());
         }
         EvalCmd::Noise { policy, runs, seconds, interval } => {
@@ -68,7 +68,7 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             if c.json {
                 return print_json(&rows);
             }
-            println!("{}", report::noise_markdown(&[("ours", &rows)], Some(&paper)));
+            println!("{}", report::noise_markdown(&[(group_of(&r), &rows)], Some(&paper)));
         }
         EvalCmd::Course { policy, course, speeds, video } => {
             let map = topa_env::course::Course::load(&topa_env::assets::resolve_path(&course.to_string_lossy()))
@@ -167,4 +167,10 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The row name of a policy's results: its paper group (so the paper's numbers for that group print beside ours),
+/// or "ours" for a robot the paper has no numbers for.
+fn group_of(r: &PolicyRunner) -> &'static str {
+    r.paper_group().unwrap_or("ours")
 }

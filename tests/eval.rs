@@ -479,3 +479,19 @@ fn an_endurance_run_counts_each_fall_with_its_cause() {
     }
     assert_ne!(runs[0], runs[1], "each run has its own operator");
 }
+
+#[test]
+fn a_single_policys_tables_print_the_papers_value_for_its_group_beside_ours() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_topa"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["eval", "tracking", "--policy", "assets/policies/C/seed1.json", "--starts", "1", "--seconds", "1"])
+        .args(["--threads", "1", "--out"])
+        .arg(tempdir("paper-beside"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    // Walk forward, C: the paper's summed MAE 0.76 (fell) and τ̄ 23.18 N·m (data/paper_tables.toml).
+    let row = text.lines().find(|l| l.starts_with("| C |")).expect("a row named after the policy's group");
+    assert!(row.contains("(0.76*)") && row.contains("(23.18)"), "{row}");
+}

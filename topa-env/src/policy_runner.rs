@@ -123,6 +123,17 @@ impl PolicyRunner {
         &self.trained_on.name
     }
 
+    /// The paper's group this policy belongs to, for the paper's numbers beside ours: O (trained on TopA's serial
+    /// model), C (on its closed chain), CA (C with the adversary); None for another robot.
+    pub fn paper_group(&self) -> Option<&'static str> {
+        match (self.trained_on(), self.policy.meta.provenance.with_adversary) {
+            ("topa_open", _) => Some("O"),
+            ("topa_closed", false) => Some("C"),
+            ("topa_closed", true) => Some("CA"),
+            _ => None,
+        }
+    }
+
     /// The robot it is evaluated on.
     pub fn robot(&self) -> &RobotSpec {
         &self.robot
