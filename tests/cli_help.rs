@@ -81,3 +81,16 @@ fn one_concept_one_flag_name_across_subcommands() {
     }
     assert!(problems.is_empty(), "{} inconsistent flags:\n{}", problems.len(), problems.join("\n"));
 }
+
+#[test]
+fn the_version_printed_is_the_changelogs_latest_release() {
+    let log = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/CHANGELOG.md")).unwrap();
+    let latest = log
+        .lines()
+        .filter_map(|l| l.strip_prefix("## [")?.split_once(']').map(|(v, _)| v))
+        .find(|v| *v != "Unreleased")
+        .expect("a released version in CHANGELOG.md");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_topa")).arg("--version").output().unwrap();
+    let printed = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(printed.trim(), format!("topa {latest}"), "the binary's version is the changelog's latest release");
+}
