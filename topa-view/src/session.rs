@@ -269,7 +269,8 @@ impl Session {
     }
 
     /// The overlay: labels and values.
-    pub fn overlay(&self, real_time: f64) -> (String, String) {
+    /// `real_time`: simulated seconds per wall-clock second achieved (None in lockstep, where frames set the pace).
+    pub fn overlay(&self, real_time: Option<f64>) -> (String, String) {
         let c = self.controls.command;
         let v = self.shown_velocity;
         let mut labels = String::from("command (vx vy wz)\nmeasured");
@@ -292,11 +293,11 @@ impl Session {
             values.push_str(&format!("\n{done:.0} / {length:.0} m, {who}\n{}", self.interventions));
         }
         labels.push_str("\ntime\nspeed\nfalls / resets\nstate");
+        let pace = real_time.map_or("lockstep".to_string(), |r| format!("achieved {r:.2}x"));
         values.push_str(&format!(
-            "\n{:.1} s\n{:.3}x (wall {:.2}x)\n{} / {}\n{state}",
+            "\n{:.1} s\n{:.3}x ({pace})\n{} / {}\n{state}",
             self.t,
             self.controls.speed(),
-            real_time,
             self.falls,
             self.resets
         ));

@@ -125,12 +125,12 @@ impl Viewer {
         if wall > 0.0 && !lockstep {
             self.real_time += 0.1 * (simulated / wall - self.real_time);
         }
-        self.draw()?;
+        self.draw(lockstep)?;
         self.window.swap_buffers();
         Ok(())
     }
 
-    fn draw(&mut self) -> Result<()> {
+    fn draw(&mut self, lockstep: bool) -> Result<()> {
         let (w, h) = self.window.get_framebuffer_size();
         let env = self.session.env();
         if self.session.controls.follow {
@@ -139,7 +139,7 @@ impl Viewer {
             let d = self.renderer.camera_distance().unwrap_or(self.camera_distance);
             self.renderer.track(torso, d, yaw + 150.0, -12.0);
         }
-        let (labels, values) = self.session.overlay(self.real_time);
+        let (labels, values) = self.session.overlay((!lockstep).then_some(self.real_time));
         let mut texts = vec![(Corner::TopLeft, labels.as_str(), values.as_str())];
         if self.session.controls.help {
             texts.push((Corner::BottomLeft, HELP.0, HELP.1));
