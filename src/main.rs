@@ -225,8 +225,9 @@ fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // One line: the error and its causes.
-            eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            // The error and its causes on one line; a cause that shows a file excerpt (a TOML error's line and
+            // caret) keeps its layout.
+            eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }
     }

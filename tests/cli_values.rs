@@ -23,3 +23,27 @@ fn negative_durations_and_zero_counts_are_refused_naming_the_flag() {
     refused(&["eval", "physics", "--policy", p, "--push-force", "nan"], "--push-force");
     refused(&["ablate", "--c", "assets/policies/C", "--starts", "0"], "--starts");
 }
+
+#[test]
+fn a_toml_syntax_error_keeps_its_excerpt_and_caret() {
+    let dir = std::env::temp_dir().join(format!("topa-toml-caret-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "[run]\nseed = 1\nnum_envs = \"x\n").unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_topa"))
+        .args(["train", "--config"])
+        .arg(&bad)
+        .arg("--out")
+        .arg(dir.join("run"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = err.lines().collect();
+    assert!(lines[0].starts_with("error: config ") && lines[0].contains("line 3, column 14"), "{err}");
+    let excerpt =
+        lines.iter().position(|l| l.starts_with("3 | num_envs")).expect("the offending line, as TOML shows it");
+    let caret = lines[excerpt + 1];
+    assert_eq!(caret.find('^'), Some("3 | num_envs = \"x".len()), "the caret under column 14: {err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

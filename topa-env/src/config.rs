@@ -154,9 +154,9 @@ impl EnvConfig {
                 })?;
             t.entry("robot").or_insert_with(|| toml::Value::String(kind.spec_path().into()));
         }
-        let cfg: EnvConfig = toml::Value::Table(t)
-            .try_into()
-            .map_err(|e: toml::de::Error| EnvError::Config(format!("[env]: {}", one_line(&e.to_string()))))?;
+        let cfg: EnvConfig = toml::Value::Table(t).try_into().map_err(|e: toml::de::Error| {
+            EnvError::Config(format!("[env]: {}", e.to_string().trim_end().to_string()))
+        })?;
         cfg.validate()?;
         Ok(cfg)
     }
@@ -165,10 +165,6 @@ impl EnvConfig {
     pub fn to_table(&self) -> toml::Table {
         toml::Table::try_from(self).expect("an EnvConfig is always a TOML table")
     }
-}
-
-fn one_line(s: &str) -> String {
-    s.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('|')).collect::<Vec<_>>().join(" ")
 }
 
 /// Velocity commands (v_x, v_y, w_z) in the robot frame.

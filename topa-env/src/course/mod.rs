@@ -161,7 +161,7 @@ impl Course {
 
     /// Parses and validates a course from TOML text.
     pub fn parse(text: &str) -> Result<Course> {
-        let raw: Raw = toml::from_str(text).map_err(|e| EnvError::Course(e.to_string().replace('\n', " ")))?;
+        let raw: Raw = toml::from_str(text).map_err(|e| EnvError::Course(e.to_string().trim_end().to_string()))?;
         let path = Path::new(raw.path.clone()).map_err(|e| EnvError::Course(format!("path: {e}")))?;
         let len = path.length();
         let within = |what: &str, s: f64| {
