@@ -75,6 +75,8 @@ pub struct Session {
     /// The measured (v_x, v_y, w_z), torso frame, low-pass filtered for display.
     shown_velocity: [f64; 3],
     course: Option<CourseDrive>,
+    /// The policy's own estimate of (v_x, v_y), torso frame, for a policy with a learned estimator.
+    learned: Option<[f64; 2]>,
     /// Puts the course's operator back on the course after a key took over (the course follower's `G`).
     interventions: usize,
 }
@@ -132,6 +134,7 @@ impl Session {
             shove: None,
             shown_velocity: [0.0; 3],
             course,
+            learned: None,
             interventions: 0,
         };
         s.reset()?;
@@ -237,6 +240,7 @@ impl Session {
         self.env.set_perturbation_struct(p);
         self.env.set_body_wrench(wrench);
         self.runner.act(&self.obs, &mut self.actions);
+        self.learned = self.runner.policy.estimate().map(|e| [e[0], e[1]]);
         let out = self.env.step(&self.actions, &mut self.obs);
         self.t += self.dt();
         if out.diverged {
@@ -275,9 +279,13 @@ impl Session {
         let v = self.shown_velocity;
         let mut labels = String::from("command (vx vy wz)\nmeasured");
         let mut values = format!("{:+.2} {:+.2} {:+.2}\n{:+.2} {:+.2} {:+.2}", c[0], c[1], c[2], v[0], v[1], v[2]);
-        if let Some(s) = self.env.sim2sim() {
+        if let Some(s) = self.env.sim2sim().filter(|_| self.env.config().sim2sim.estimator.enabled) {
             let e = s.latest().lin_vel;
-            labels.push_str("\nestimated (vx vy)");
+            labels.push_str("\nKalman filter (vx vy)");
+            values.push_str(&format!("\n{:+.2} {:+.2}", e[0], e[1]));
+        }
+        if let Some(e) = self.learned {
+            labels.push_str("\npolicy's estimate (vx vy)");
             values.push_str(&format!("\n{:+.2} {:+.2}", e[0], e[1]));
         }
         let state = match (self.state, self.controls.paused, self.shove) {
