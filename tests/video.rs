@@ -45,6 +45,24 @@ fn the_standing_robot_fills_the_middle_of_the_frame() {
 }
 
 #[test]
+fn a_robot_with_collision_geometry_only_is_drawn() {
+    // Cassie is vendored without its visual meshes: its geoms are all in the collision group MuJoCo hides.
+    let _gl = GlContext::headless(320, 240).expect("headless OpenGL (EGL)");
+    let spec = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/robots/cassie.toml"));
+    let (_, model) = topa_env::spec::RobotSpec::load(spec).unwrap();
+    let model = std::sync::Arc::new(model);
+    let mut data = mujoco::Data::new(model.clone()).unwrap();
+    data.forward().unwrap();
+    let pelvis = (1..model.raw().nbody as usize).next().unwrap();
+    let mut r = Renderer::new(model.clone(), 320, 240, mujoco::render::Quality::Fast).unwrap();
+    r.track(pelvis, 2.5, 150.0, -15.0);
+    r.render(&mut data, None).unwrap();
+    let (px, py) = r.project(data.xpos()[pelvis]).unwrap();
+    let g = r.geom_at(&mut data, px as usize, py as usize).unwrap().expect("the pelvis is drawn");
+    assert_ne!(model.geom_bodyid()[g], 0, "the pelvis's pixel shows the floor");
+}
+
+#[test]
 fn a_video_of_n_seconds_has_n_times_fps_frames() {
     let dir = tempdir("frames");
     let out = dir.join("stand.gif");

@@ -130,6 +130,15 @@ impl Renderer {
             ffi::mjv_defaultOption(&mut *option);
             ffi::mjv_defaultCamera(&mut camera);
         }
+        // Bodies with geoms only in the groups MuJoCo hides by default (3–5, collision geometry: a robot vendored
+        // without its visual meshes) would draw as nothing: show those groups then.
+        let raw = model.raw();
+        // SAFETY: the model's geom arrays hold ngeom entries.
+        let seen =
+            (0..raw.ngeom as usize).any(|g| unsafe { *raw.geom_bodyid.add(g) > 0 && *raw.geom_group.add(g) < 3 });
+        if !seen {
+            option.geomgroup[3..6].fill(1);
+        }
         let m = model.raw() as *const _;
         // The structs are boxed: their addresses stay put if a guarded call long-jumps out.
         let (scn, con) = (&mut *scene as *mut mjvScene, &mut *context as *mut mjrContext);
