@@ -8,6 +8,9 @@ use topa_view::session::Ground;
 
 use crate::cli::view::ViewArgs;
 
+/// The GIF's walk when `--seconds` does not say, s.
+const GIF_SECONDS: f64 = 8.0;
+
 /// The GIF written when there is no display and no `--gif`.
 const HEADLESS_GIF: &str = "topa-walk.gif";
 
@@ -33,7 +36,7 @@ pub(crate) fn run(a: ViewArgs) -> Result<()> {
         );
         let o = play::PlayOptions {
             command,
-            seconds: a.seconds,
+            seconds: a.seconds.unwrap_or(GIF_SECONDS),
             video: Some(gif),
             video_size: (a.size.width.min(640), a.size.height.min(480)),
             fps: 20,
@@ -60,6 +63,7 @@ pub(crate) fn run(a: ViewArgs) -> Result<()> {
         (None, Some(k)) => Ground::Tile(k, a.level as usize - 1),
         (None, None) => Ground::Flat,
     };
+    ensure!(a.seconds.is_none(), "--seconds is the GIF's length: add --gif FILE, or drop it for the window");
     let session = topa_view::Session::new(&policy, &settings, &ground, command)?;
     let title = format!("topa view — {}", policy.display());
     let mut viewer = topa_view::Viewer::open(session, (a.size.width, a.size.height), a.quality.into(), &title)?;

@@ -27,7 +27,7 @@ pub(crate) struct ViewArgs {
     /// The terrain tile's difficulty, 1 (easiest) to 5.
     #[arg(long, requires = "tile", value_parser = clap::value_parser!(u8).range(1..=5), default_value_t = 3)]
     pub(crate) level: u8,
-    /// Window size WIDTHxHEIGHT, pixels.
+    /// Window size WIDTHxHEIGHT, pixels (a GIF's: at most 640x480).
     #[arg(long, default_value = "960x640")]
     pub(crate) size: topa_eval::video::FrameSize,
     /// fast (no multisampling, shadows or reflections: smooth on a software renderer) or high.
@@ -36,9 +36,9 @@ pub(crate) struct ViewArgs {
     /// Write the walk to this GIF instead of opening a window (the default without a display: topa-walk.gif).
     #[arg(long)]
     pub(crate) gif: Option<PathBuf>,
-    /// Length of the GIF's walk, s.
-    #[arg(long, value_parser = positive, default_value_t = 8.0)]
-    pub(crate) seconds: f64,
+    /// Length of the GIF's walk, s [default: 8].
+    #[arg(long, value_parser = positive)]
+    pub(crate) seconds: Option<f64>,
     /// Draw this many frames, each 1/30 s of simulated time however long it takes, then close (scripted runs).
     #[arg(long, value_parser = at_least_one)]
     pub(crate) frames: Option<usize>,
