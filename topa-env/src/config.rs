@@ -154,9 +154,9 @@ impl EnvConfig {
                 })?;
             t.entry("robot").or_insert_with(|| toml::Value::String(kind.spec_path().into()));
         }
-        let cfg: EnvConfig = toml::Value::Table(t).try_into().map_err(|e: toml::de::Error| {
-            EnvError::Config(format!("[env]: {}", e.to_string().trim_end().to_string()))
-        })?;
+        let cfg: EnvConfig = toml::Value::Table(t)
+            .try_into()
+            .map_err(|e: toml::de::Error| EnvError::Config(format!("[env]: {}", e.to_string().trim_end())))?;
         cfg.validate()?;
         Ok(cfg)
     }
