@@ -463,3 +463,76 @@ fn every_link_to_a_section_names_a_heading_that_exists() {
     }
     assert!(n >= 50, "the guides link each other's sections ({n} links found)");
 }
+
+/// The intervals quoted in a page's prose, outside the blocks `topa docs` generates: "value [low, high]" as
+/// written, e.g. "+1.17 s [+0.50, +1.91]" gives "[+0.50, +1.91]".
+fn quoted_intervals(text: &str) -> Vec<(usize, String)> {
+    let mut out = Vec::new();
+    let mut generated = false;
+    for (n, line) in text.lines().enumerate() {
+        if line.starts_with("<!-- generated:") {
+            generated = true;
+        } else if line.starts_with("<!-- end generated") {
+            generated = false;
+        }
+        if generated {
+            continue;
+        }
+        for (i, _) in line.match_indices('[') {
+            let Some(end) = line[i..].find(']') else { continue };
+            let inner = &line[i + 1..i + end];
+            let Some((a, b)) = inner.split_once(", ") else { continue };
+            let number = |s: &str| s.trim_start_matches(['+', '-', '−']).parse::<f64>().is_ok();
+            // An interval follows the value it bounds ("+1.17 s [", "96 % ["): a number, maybe a unit.
+            let mut before = line[..i].trim_end().rsplit(' ');
+            let last = before.next().unwrap_or("");
+            let value = if number(last) { Some(last) } else { before.next() };
+            let is_unit = !last.is_empty() && last.len() <= 4 && !last.chars().any(|c| c.is_ascii_digit() || c == '`');
+            if value.is_some_and(number) && (number(last) || is_unit) && number(a) && number(b) {
+                out.push((n + 1, line[i..=i + end].to_string()));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn every_interval_the_prose_quotes_is_in_a_generated_report() {
+    assert_eq!(
+        quoted_intervals(
+            "C+A − C: +1.17 s [+0.50, +1.91], 96 % [95, 98], M = [[1, 0], [−1, 1]], default [256, 128]\n\
+             <!-- generated: x -->\n2 [1, 2]\n<!-- end generated -->"
+        ),
+        [(1, "[+0.50, +1.91]".to_string()), (1, "[95, 98]".to_string())]
+    );
+    // Every report under docs/results/, as generated text.
+    let mut reports = String::new();
+    let mut stack = vec![root().join("docs/results")];
+    while let Some(dir) = stack.pop() {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "md" || x == "json") && !p.ends_with("notes.md") {
+                reports.push_str(&std::fs::read_to_string(&p).unwrap());
+            }
+        }
+    }
+    let mut pages = guides();
+    pages.push(root().join("README.md"));
+    let (mut stale, mut n) = (Vec::new(), 0);
+    for page in pages {
+        for (line, interval) in quoted_intervals(&std::fs::read_to_string(&page).unwrap()) {
+            n += 1;
+            if !reports.contains(&interval) {
+                stale.push(format!("{}:{line}: {interval}", name_of(&page)));
+            }
+        }
+    }
+    assert!(n >= 3, "the README's claims quote their intervals ({n} found)");
+    assert!(
+        stale.is_empty(),
+        "intervals quoted in prose that no report under docs/results/ holds (stale?):\n{}",
+        stale.join("\n")
+    );
+}
