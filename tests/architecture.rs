@@ -10,7 +10,7 @@ fn root() -> &'static Path {
 }
 
 /// The library crates, each a folder at the root; the command line is the root package (`src/`).
-const LIBRARIES: [&str; 11] = [
+const LIBRARIES: [&str; 12] = [
     "topa-control",
     "mujoco-sys",
     "mujoco",
@@ -22,6 +22,7 @@ const LIBRARIES: [&str; 11] = [
     "topa-tools",
     "topa-robot",
     "topa-sim-robot",
+    "topa-view",
 ];
 
 /// A crate's path dependencies (the workspace's own crates), from its manifest.

@@ -57,7 +57,7 @@ fn spawn_control_over(dir: &Path, p: &Ports, start: bool, zenoh_prefix: Option<&
     if let Some(prefix) = zenoh_prefix {
         cmd.args(["--zenoh", "--zenoh-prefix", prefix]);
     }
-    cmd.args(["--listen", &a(p.controller), "--robot", &a(p.robot)]);
+    cmd.args(["--listen", &a(p.controller), "--peer", &a(p.robot)]);
     cmd.args(["--operator-listen", &a(p.operator_in), "--operator", &a(p.operator), "--seconds", "300"]);
     if start {
         cmd.arg("--start");

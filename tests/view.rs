@@ -60,8 +60,8 @@ fn frames(v: &mut Viewer, n: usize) {
 #[test]
 fn the_viewer_draws_the_robot_and_obeys_keys_and_mouse() {
     let (_x, display) = VirtualDisplay::start();
-    // SAFETY: set before any thread of this test process reads the environment (one test in this binary).
-    unsafe { std::env::set_var("DISPLAY", &display) };
+    // Before any other thread of this test process reads the environment (one test in this binary).
+    std::env::set_var("DISPLAY", &display);
     let session = Session::new(&policy(), &EvalSettings::default(), &Ground::Flat, [0.0; 3]).unwrap();
     let mut v = Viewer::open(session, (480, 360), mujoco::render::Quality::Fast, "test").unwrap();
 
@@ -84,10 +84,7 @@ fn the_viewer_draws_the_robot_and_obeys_keys_and_mouse() {
     assert!(px < w && py < h, "the torso projects to ({px}, {py}), outside the window");
     let model = v.session.env().data().model_arc().clone();
     let g = v.geom_at(px, py).unwrap().expect("a geom is drawn at the torso's pixel");
-    assert_ne!(model.raw().nbody, 0);
-    // SAFETY: g < ngeom (the renderer returns model geoms only).
-    let body = unsafe { *model.raw().geom_bodyid.add(g) } as usize;
-    assert_ne!(body, 0, "the torso's pixel shows the floor, not the robot");
+    assert_ne!(model.geom_bodyid()[g], 0, "the torso's pixel shows the floor, not the robot");
     assert_eq!(v.geom_at(w / 2, 2).unwrap(), None, "the top row is sky");
 
     // Five W presses: 0.5 m/s forward; after 3 s the measured velocity follows.

@@ -1,9 +1,10 @@
 //! The mouse in MuJoCo's viewer conventions: camera moves, picking a body under the cursor, and the spring that
 //! drags a picked body (`mjvPerturb`), whose force MuJoCo computes from the model's `<visual><map stiffness>`.
 
-use mujoco_sys::ffi::{self, mjvPerturb};
+use mujoco_sys::ffi;
 
 use crate::data::Data;
+pub use crate::render::Perturb;
 use crate::render::Renderer;
 
 /// A mouse motion's meaning, MuJoCo's `mjtMouse`.
@@ -66,26 +67,7 @@ impl Renderer {
     }
 }
 
-/// A body picked with the mouse and the spring that drags it.
-pub struct Perturb {
-    raw: Box<mjvPerturb>,
-}
-
-impl Default for Perturb {
-    fn default() -> Self {
-        // SAFETY: a plain C struct, initialised by MuJoCo's default function before use.
-        let mut raw: Box<mjvPerturb> = Box::new(unsafe { std::mem::zeroed() });
-        // SAFETY: a valid pointer to an owned struct.
-        unsafe { ffi::mjv_defaultPerturb(&mut *raw) };
-        Perturb { raw }
-    }
-}
-
 impl Perturb {
-    pub(crate) fn raw(&self) -> *const mjvPerturb {
-        &*self.raw
-    }
-
     /// The picked body, if any.
     pub fn body(&self) -> Option<usize> {
         (self.raw.select > 0).then_some(self.raw.select as usize)

@@ -11,7 +11,7 @@ use crate::data::Data;
 use crate::error::{MujocoError, Result};
 use crate::guard::guarded;
 use crate::model::Model;
-use mujoco_sys::ffi::{self, mjrContext, mjrRect, mjvCamera, mjvOption, mjvScene};
+use mujoco_sys::ffi::{self, mjrContext, mjrRect, mjvCamera, mjvOption, mjvPerturb, mjvScene};
 
 /// Most geoms a frame can hold.
 const MAX_GEOM: i32 = 2000;
@@ -40,6 +40,21 @@ pub struct Renderer {
     viewport: (usize, usize),
     /// The OpenGL context was set up (only then may it be freed: freeing calls into OpenGL).
     context_made: bool,
+}
+
+/// A body picked with the mouse and the spring that drags it (its handling: `interact`).
+pub struct Perturb {
+    pub(crate) raw: Box<mjvPerturb>,
+}
+
+impl Default for Perturb {
+    fn default() -> Self {
+        // SAFETY: a plain C struct, initialised by MuJoCo's default function before use.
+        let mut raw: Box<mjvPerturb> = Box::new(unsafe { std::mem::zeroed() });
+        // SAFETY: a valid pointer to an owned struct.
+        unsafe { ffi::mjv_defaultPerturb(&mut *raw) };
+        Perturb { raw }
+    }
 }
 
 /// A corner of the frame for a text overlay.
@@ -288,7 +303,7 @@ impl Renderer {
         d: &mut Data,
         (width, height): (usize, usize),
         overlays: &[(Corner, &str, &str)],
-        perturb: Option<&crate::interact::Perturb>,
+        perturb: Option<&Perturb>,
     ) -> Result<()> {
         if d.model().raw().nbody != self.model.raw().nbody || d.model().raw().ngeom != self.model.raw().ngeom {
             return Err(MujocoError::Invalid("render: the Data belongs to another model".into()));
@@ -296,7 +311,7 @@ impl Renderer {
         let viewport = mjrRect { left: 0, bottom: 0, width: width as i32, height: height as i32 };
         self.viewport = (width, height);
         let m = d.model().raw() as *const _;
-        let pert = perturb.map_or(std::ptr::null(), |p| p.raw());
+        let pert = perturb.map_or(std::ptr::null(), |p| &*p.raw as *const mjvPerturb);
         // SAFETY: d was made for a model of this structure; owned structs; the scene holds MAX_GEOM geoms; `pert`
         // null or a valid perturbation.
         unsafe {

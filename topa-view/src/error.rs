@@ -14,8 +14,8 @@ pub enum Error {
     /// No window could be opened.
     #[error("cannot open a window: {0} (no display? `topa view --gif FILE` writes the walk to a GIF instead)")]
     Window(String),
-    #[error("--level {0} does not exist: the terrain has levels 1 (easiest) to {levels}", levels = crate::session::TERRAIN_LEVELS)]
-    Level(usize),
+    #[error("--level {level} does not exist: the terrain has levels 1 (easiest) to {levels}")]
+    Level { level: usize, levels: usize },
     #[error("the simulation diverged at {0:.2} s (reset with R; if it repeats, lower --timestep)")]
     Diverged(f64),
     #[error("cannot write the screenshot {}: {source}", path.display())]

@@ -93,7 +93,7 @@ impl Session {
             Ground::Flat => assets::load_robot(&cfg)?.1,
             Ground::Tile(kind, level) => {
                 if *level >= TERRAIN_LEVELS {
-                    return Err(Error::Level(level + 1));
+                    return Err(Error::Level { level: level + 1, levels: TERRAIN_LEVELS });
                 }
                 let p = terrain::Protocol { levels: TERRAIN_LEVELS, types: vec![*kind], ..Default::default() };
                 cfg.terrain = terrain::evaluation_terrain(runner.training_config(), &p);
