@@ -62,5 +62,6 @@ pub(crate) fn guarded(call: &'static str, f: impl FnOnce(*mut c_char, c_int) -> 
 pub(crate) fn c_buf_to_string(buf: &[c_char]) -> String {
     // SAFETY: the shim and MuJoCo NUL-terminate within the buffer; the last byte is never written otherwise.
     let bytes: Vec<u8> = buf.iter().take_while(|&&c| c != 0).map(|&c| c as u8).collect();
-    String::from_utf8_lossy(&bytes).trim().to_string()
+    // MuJoCo wraps its messages (the XML parser's over two lines); an error is one line on our side.
+    String::from_utf8_lossy(&bytes).lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" ")
 }
