@@ -292,9 +292,9 @@ impl TrainConfig {
     pub fn load(path: &Path) -> Result<TrainConfig, ConfigError> {
         let p = path.display().to_string();
         let table = load_table(path, 0)?;
-        let cfg: TrainConfig = toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
-            ConfigError::Parse { path: p.clone(), message: e.to_string().trim_end().to_string() }
-        })?;
+        let cfg: TrainConfig = toml::Value::Table(table)
+            .try_into()
+            .map_err(|e: toml::de::Error| ConfigError::Parse { path: p.clone(), message: toml_message(&e) })?;
         cfg.validate().map_err(|e| ConfigError::Invalid { path: p, message: e.to_string() })?;
         Ok(cfg)
     }
@@ -302,9 +302,7 @@ impl TrainConfig {
     /// A config saved in a checkpoint or policy sidecar (JSON).
     pub fn from_json(v: &serde_json::Value) -> Result<TrainConfig, ConfigError> {
         let table: toml::Table = serde_json::from_value(v.clone()).map_err(|e| ConfigError::Saved(e.to_string()))?;
-        toml::Value::Table(table)
-            .try_into()
-            .map_err(|e: toml::de::Error| ConfigError::Saved(e.to_string().trim_end().to_string()))
+        toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| ConfigError::Saved(toml_message(&e)))
     }
 
     /// The learner's own keys (the task checks `env`).
@@ -367,6 +365,11 @@ impl TrainConfig {
     }
 }
 
+/// toml's message as toml lays it out (excerpt and caret on their own lines), without its trailing newline.
+fn toml_message(e: &toml::de::Error) -> String {
+    e.to_string().trim_end().to_string()
+}
+
 /// A config file's table with its `base` chain merged in (at most 8 levels, so a cycle is an error).
 pub fn load_table(path: &Path, depth: usize) -> Result<toml::Table, ConfigError> {
     let p = path.display().to_string();
@@ -374,8 +377,8 @@ pub fn load_table(path: &Path, depth: usize) -> Result<toml::Table, ConfigError>
         return Err(ConfigError::Invalid { path: p, message: "`base` chain deeper than 8 files (a cycle?)".into() });
     }
     let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io { path: p.clone(), source })?;
-    let mut table: toml::Table = toml::from_str(&text)
-        .map_err(|e| ConfigError::Parse { path: p.clone(), message: e.to_string().trim_end().to_string() })?;
+    let mut table: toml::Table =
+        toml::from_str(&text).map_err(|e| ConfigError::Parse { path: p.clone(), message: toml_message(&e) })?;
     let Some(base) = table.remove("base") else { return Ok(table) };
     let Some(base) = base.as_str() else {
         return Err(ConfigError::Invalid { path: p, message: "`base` must be a file name (a string)".into() });
