@@ -1,7 +1,8 @@
-//! `topa ablate`, `topa terrain`, `topa field`: the paper's groups of seeds (O, C, C+A) through an experiment
-//! suite, or earlier reports merged — run, print (Markdown or JSON), write the report to a folder.
+//! `topa ablate`, `topa terrain`, `topa field`, `topa compare`: the paper's groups of seeds (O, C, C+A) through an
+//! experiment suite, earlier reports merged, or two reports compared — run, print (Markdown or JSON), write the
+//! report to a folder.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 
@@ -57,6 +58,18 @@ pub(crate) fn merge_ablations(files: &[PathBuf], attached: Attached, c: Common) 
     attach(&mut a, attached)?;
     ablate::check_attached_weights(&a, &ablate::measured_weights(&a))?;
     report_ablation(&a, &c)
+}
+
+/// `topa compare`: compare.{md,json} in the output folder, the Markdown (or the JSON) printed.
+pub(crate) fn compare(baseline: &Path, variant: &Path, json: bool, out: &Path) -> Result<()> {
+    let c = topa_eval::compare::load_and_compare(baseline, variant)?;
+    let md = topa_eval::compare::write(&c, out)?;
+    if json {
+        return print_json(&c);
+    }
+    println!("{md}");
+    println!("results: {} (compare.md, compare.json)", out.display());
+    Ok(())
 }
 
 /// `topa terrain`: terrain.{md,json} and the heatmaps in the output folder.

@@ -47,6 +47,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             extent.tracking_starts = starts.unwrap_or(extent.tracking_starts);
             groups_cmd::run_ablate(groups, extent, [field.as_deref(), terrain.as_deref(), physics.as_deref()], common)
         }
+        Cmd::Compare { baseline, variant, json, out } => groups_cmd::compare(&baseline, &variant, json, &out),
         Cmd::Physics { merge, protocol, common, .. } if !merge.is_empty() => {
             trainer::nn::init_threads(resolve_threads(common.threads))?;
             let r = topa_eval::physics::report::merge(&merge)?;

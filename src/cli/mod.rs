@@ -97,6 +97,22 @@ pub(crate) enum Cmd {
         #[command(flatten)]
         common: Common,
     },
+    /// Two ablation reports side by side, a change to the recipe (the variant) against what it would replace (the
+    /// baseline): each group's headline measures with the difference's bootstrap 95 % interval and a verdict.
+    Compare {
+        /// The baseline's ablation.json (written by `topa ablate`).
+        #[arg(long)]
+        baseline: PathBuf,
+        /// The variant's ablation.json: the same protocol and evaluation flags, other policies.
+        #[arg(long)]
+        variant: PathBuf,
+        /// Print JSON instead of Markdown.
+        #[arg(long)]
+        json: bool,
+        /// Folder for compare.md and compare.json.
+        #[arg(long, default_value = "out/compare")]
+        out: PathBuf,
+    },
     /// Every policy of O, C and C+A under perturbations of the simulator (`topa eval physics` per seed): each
     /// group's share of perturbations survived with its 95 % interval, the paper's order checked, a heatmap.
     Physics {

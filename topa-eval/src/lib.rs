@@ -22,6 +22,7 @@
 pub mod ablate;
 pub mod claims;
 pub mod clips;
+pub mod compare;
 pub mod course;
 pub mod course_map;
 pub mod doc_blocks;
