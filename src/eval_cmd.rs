@@ -156,14 +156,22 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             }
             println!("{}", endurance::markdown(&result));
         }
-        EvalCmd::Velocity { policy, seconds, command_seconds } => {
-            let mut r = PolicyRunner::load(&policy, "policy")?;
-            let result = velocity::run(&mut r, &s, seconds, command_seconds)?;
+        EvalCmd::Velocity { policy, tuned_filter, seconds, command_seconds } => {
+            let policies = topa_eval::results::policy_files("policy", &policy)?;
+            let tuned = match &tuned_filter {
+                Some(f) => Some((f, s.clone().with_sim2sim(&topa_eval::settings::Sim2SimMode::File(f.clone()))?)),
+                None => None,
+            };
+            let load = |p: &std::path::PathBuf| Ok(PolicyRunner::load(p, "policy")?);
+            let second = tuned.as_ref().map(|(f, t)| (*f, t));
+            let result = velocity::run_policies(&policies, load, &s, second, seconds, command_seconds)?;
             report::write_json(&c.out, "velocity.json", &result)?;
+            let md = velocity::report_markdown(&result);
+            report::write_text(&c.out, "velocity.md", &md)?;
             if c.json {
                 return print_json(&result);
             }
-            println!("{}", velocity::markdown(&result));
+            println!("{md}");
         }
     }
     Ok(())

@@ -143,6 +143,17 @@ fn the_estimator_learns_the_velocity_and_ships_inside_the_policy() {
     // A policy that reads the velocity has no estimate of its own.
     let mut shipped = PolicyRunner::load(Path::new("assets/policies/C/seed1.json"), "C").unwrap();
     assert_eq!(velocity::run(&mut shipped, &realistic, 1.0, 1.0).unwrap().learned, None);
+    // Several policies with a second filter (`--tuned-filter`): its column is that filter on the same walk; a policy
+    // that reads the filter walks differently under it and is refused, naming it.
+    let load = |p: &std::path::PathBuf| -> topa_eval::Result<PolicyRunner> { Ok(PolicyRunner::load(p, "p")?) };
+    let tuned = std::path::PathBuf::from("tuned.toml");
+    let free = [run.join("policy.json")];
+    let r = velocity::run_policies(&free, load, &realistic, Some((&tuned, &other)), 4.0, 1.0).unwrap();
+    assert_eq!((r.rows[0].walk.learned, r.rows[0].second), (a.learned, b.filter));
+    assert!(velocity::report_markdown(&r).contains("| Kalman filter, tuned.toml |"));
+    let fed = [std::path::PathBuf::from("assets/policies/C/seed1.json")];
+    let err = velocity::run_policies(&fed, load, &realistic, Some((&tuned, &other)), 2.0, 1.0).unwrap_err();
+    assert!(err.to_string().contains("C/seed1.json") && err.to_string().contains("reads the"), "{err}");
     std::fs::remove_dir_all(dir).ok();
 }
 

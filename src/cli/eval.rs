@@ -211,9 +211,13 @@ pub(crate) enum EvalCmd {
     /// The base velocity as the robot knows it — a velocity-free policy's learned estimate, the Kalman filter's
     /// (with `--sim2sim realistic` or a file) — against the truth, on one walk through a cycle of commands.
     Velocity {
-        /// The policy file (`assets/policies/<group>/seedN.json`, or a `topa train --out` folder's policy.json).
+        /// Policy files, or folders whose *.json policies are all taken (the seeds of a group): one walk each.
+        #[arg(long, num_args = 1.., required = true)]
+        policy: Vec<PathBuf>,
+        /// A second sim2sim file whose Kalman filter runs on the same walks, e.g. the one `topa sysid estimator`
+        /// tuned (velocity-free policies only: one that reads the filter would walk differently).
         #[arg(long)]
-        policy: PathBuf,
+        tuned_filter: Option<PathBuf>,
         /// Seconds of walking.
         #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 48.0)]
         seconds: f64,

@@ -4,8 +4,11 @@
 //! walk is the command cycle of estimator tuning — forward, curving, backward, sideways, a fast turn, standing —
 //! each command held for `command_s`. All three in the torso frame, once per control period.
 //!
-//! A velocity-free policy does not read the filter, so its walk is the same whatever the filter's parameters: run
-//! twice with two sim2sim files (the default filter, a tuned one) and the two filters are compared on one walk.
+//! A velocity-free policy does not read the filter, so its walk is the same whatever the filter's parameters: with a
+//! second sim2sim file (a tuned filter) the walk runs again and the two filters are compared on one walk — checked
+//! by the walk's checksum, which a policy that reads the filter breaks.
+
+use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 use topa_env::policy_runner::PolicyRunner;
@@ -107,6 +110,104 @@ pub fn run(runner: &mut PolicyRunner, settings: &EvalSettings, seconds: f64, com
         truth_rms: VelocityError::of(&truth, steps),
         walk_checksum: checksum,
     })
+}
+
+/// Several policies' walks (the seeds of a group), each with the sim2sim mode's filter and, where given, a
+/// second filter on the same walk.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VelocityReport {
+    /// The sim2sim mode of the walks, and the file of the second filter.
+    pub sim2sim: String,
+    pub second_filter: Option<PathBuf>,
+    pub rows: Vec<VelocityRow>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VelocityRow {
+    pub policy: PathBuf,
+    pub walk: VelocityResult,
+    /// The second filter's error on the same walk.
+    pub second: Option<VelocityError>,
+}
+
+/// Walks each policy (`runner_of` loads one) under `settings` and, with `second`, again under the second filter's
+/// settings: a walk that differs is refused, since its filters would not be compared on one walk.
+pub fn run_policies(
+    policies: &[PathBuf],
+    mut runner_of: impl FnMut(&PathBuf) -> Result<PolicyRunner>,
+    settings: &EvalSettings,
+    second: Option<(&PathBuf, &EvalSettings)>,
+    seconds: f64,
+    command_s: f64,
+) -> Result<VelocityReport> {
+    let mut rows = Vec::new();
+    for p in policies {
+        let walk = run(&mut runner_of(p)?, settings, seconds, command_s)?;
+        let second = match second {
+            Some((file, s2)) => {
+                let again = run(&mut runner_of(p)?, s2, seconds, command_s)?;
+                ensure!(
+                    again.walk_checksum == walk.walk_checksum,
+                    "{}: the walk under --tuned-filter {} is not the walk under --sim2sim {}: the policy reads the                      filter's estimate (or the file changes more than the filter), so the two filters would not be                      compared on one walk; use a velocity-free policy and a file that differs in [estimator] only",
+                    p.display(),
+                    file.display(),
+                    settings.sim2sim_mode
+                );
+                ensure!(again.filter.is_some(), "--tuned-filter {}: its [estimator] is not enabled", file.display());
+                again.filter
+            }
+            None => None,
+        };
+        rows.push(VelocityRow { policy: p.clone(), walk, second });
+    }
+    Ok(VelocityReport {
+        sim2sim: settings.sim2sim_mode.to_string(),
+        second_filter: second.map(|(f, _)| f.clone()),
+        rows,
+    })
+}
+
+/// The report: one policy without a second filter as its own table (`markdown`); otherwise one row per policy
+/// (horizontal RMSE) and the mean ± sd over them.
+pub fn report_markdown(r: &VelocityReport) -> String {
+    if let ([one], None) = (r.rows.as_slice(), &r.second_filter) {
+        return markdown(&one.walk);
+    }
+    let second = r.second_filter.as_ref().map(|f| format!(" | Kalman filter, {} |", f.display()));
+    let mut s = format!(
+        "Horizontal base velocity (v_x, v_y) against the simulator's truth, torso frame, RMSE in m/s over each \
+         policy's walk through the command cycle (sim2sim: {}).\n\n| policy | learned estimator | Kalman filter ({}){}\
+         zero (the truth's RMS) | fell |\n|---|---:|---:|{}---:|---|\n",
+        r.sim2sim,
+        r.sim2sim,
+        second.as_deref().unwrap_or(" |"),
+        if second.is_some() { "---:|" } else { "" }
+    );
+    let cell = |e: Option<f64>| e.map_or("–".into(), |x| format!("{x:.4}"));
+    let columns = |w: &VelocityRow| {
+        let mut c = vec![w.walk.learned.map(|e| e.horizontal), w.walk.filter.map(|e| e.horizontal)];
+        if r.second_filter.is_some() {
+            c.push(w.second.map(|e| e.horizontal));
+        }
+        c.push(Some(w.walk.truth_rms.horizontal));
+        c
+    };
+    for w in &r.rows {
+        let cells: Vec<String> = columns(w).into_iter().map(cell).collect();
+        let fell = if w.walk.fell { "yes" } else { "no" };
+        s.push_str(&format!("| {} | {} | {fell} |\n", w.policy.display(), cells.join(" | ")));
+    }
+    if r.rows.len() > 1 {
+        let n = columns(&r.rows[0]).len();
+        let stats: Vec<String> = (0..n)
+            .map(|i| {
+                let xs: Vec<f64> = r.rows.iter().filter_map(|w| columns(w)[i]).collect();
+                crate::groups::Stat::of(&xs).show(4)
+            })
+            .collect();
+        s.push_str(&format!("| mean ± sd | {} | |\n", stats.join(" | ")));
+    }
+    s
 }
 
 /// The result as a Markdown table.
