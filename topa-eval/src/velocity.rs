@@ -173,14 +173,14 @@ pub fn report_markdown(r: &VelocityReport) -> String {
     if let ([one], None) = (r.rows.as_slice(), &r.second_filter) {
         return markdown(&one.walk);
     }
-    let second = r.second_filter.as_ref().map(|f| format!(" | Kalman filter, {} |", f.display()));
+    let second = r.second_filter.as_ref().map(|f| format!(" Kalman filter, {} |", f.display()));
     let mut s = format!(
         "Horizontal base velocity (v_x, v_y) against the simulator's truth, torso frame, RMSE in m/s over each \
-         policy's walk through the command cycle (sim2sim: {}).\n\n| policy | learned estimator | Kalman filter ({}){}\
+         policy's walk through the command cycle (sim2sim: {}).\n\n| policy | learned estimator | Kalman filter ({}) |{} \
          zero (the truth's RMS) | fell |\n|---|---:|---:|{}---:|---|\n",
         r.sim2sim,
         r.sim2sim,
-        second.as_deref().unwrap_or(" |"),
+        second.as_deref().unwrap_or(""),
         if second.is_some() { "---:|" } else { "" }
     );
     let cell = |e: Option<f64>| e.map_or("–".into(), |x| format!("{x:.4}"));
