@@ -12,7 +12,7 @@ use serde::Serialize;
 use crate::ablate::Ablation;
 use crate::error::{ensure, Error, Result};
 use crate::groups::{self, GroupResults};
-use crate::intervals::{self, Resampling, Scores, MIN_RUNS_FOR_VERDICT};
+use crate::intervals::{self, Interval, Resampling, Scores, MIN_RUNS_FOR_VERDICT};
 use crate::merge::{self, Mergeable};
 use crate::results::{Group, PolicyResults, RunCounts};
 
@@ -54,20 +54,6 @@ impl Verdict {
     }
 }
 
-/// A point and its 95 % interval, as written to JSON.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Span {
-    pub point: f64,
-    pub lo: f64,
-    pub hi: f64,
-}
-
-impl From<intervals::Interval> for Span {
-    fn from(i: intervals::Interval) -> Self {
-        Span { point: i.point, lo: i.lo, hi: i.hi }
-    }
-}
-
 /// One measure of one group.
 #[derive(Debug, Clone, Serialize)]
 pub struct Row {
@@ -77,13 +63,13 @@ pub struct Row {
     pub better: Better,
     pub baseline_seeds: usize,
     pub variant_seeds: usize,
-    pub baseline: Span,
-    pub variant: Span,
+    pub baseline: Interval,
+    pub variant: Interval,
     /// Variant − baseline.
-    pub difference: Span,
+    pub difference: Interval,
     /// P(variant better than baseline) (rliable's probability of improvement; for a lower-is-better measure,
     /// P(variant < baseline)).
-    pub p_variant_better: Option<Span>,
+    pub p_variant_better: Option<Interval>,
     pub verdict: Verdict,
 }
 
@@ -224,15 +210,15 @@ fn row(
     v: &Scores,
     how: Resampling,
 ) -> Row {
-    let nan = Span { point: f64::NAN, lo: f64::NAN, hi: f64::NAN };
+    let nan = Interval { point: f64::NAN, lo: f64::NAN, hi: f64::NAN };
     let (difference, p) = match intervals::compare(v, b, how) {
-        Some((d, p)) => (Span::from(d), Some(Span::from(p))),
+        Some((d, p)) => (d, Some(p)),
         None => (nan, None),
     };
     // P(v < b) for a lower-is-better measure: the same bootstrap with the roles swapped.
     let p_variant_better = match better {
         Better::Higher => p,
-        Better::Lower => intervals::compare(b, v, how).map(|(_, p)| Span::from(p)),
+        Better::Lower => intervals::compare(b, v, how).map(|(_, p)| p),
         Better::Neither => None,
     };
     let enough = b.len() >= MIN_RUNS_FOR_VERDICT && v.len() >= MIN_RUNS_FOR_VERDICT;
@@ -259,23 +245,15 @@ fn row(
         better,
         baseline_seeds: b.len(),
         variant_seeds: v.len(),
-        baseline: intervals::interval(b, how, intervals::mean).into(),
-        variant: intervals::interval(v, how, intervals::mean).into(),
+        baseline: intervals::interval(b, how, intervals::mean),
+        variant: intervals::interval(v, how, intervals::mean),
         difference,
         p_variant_better,
         verdict,
     }
 }
 
-fn show(s: &Span, digits: usize) -> String {
-    if s.point.is_finite() {
-        format!("{:.d$} [{:.d$}, {:.d$}]", s.point, s.lo, s.hi, d = digits)
-    } else {
-        "–".into()
-    }
-}
-
-fn signed(s: &Span, digits: usize) -> String {
+fn signed(s: &Interval, digits: usize) -> String {
     if s.point.is_finite() {
         format!("{:+.d$} [{:+.d$}, {:+.d$}]", s.point, s.lo, s.hi, d = digits)
     } else {
@@ -311,10 +289,10 @@ pub fn markdown(c: &Comparison) -> String {
             r.measure,
             r.baseline_seeds,
             r.variant_seeds,
-            show(&r.baseline, digits),
-            show(&r.variant, digits),
+            r.baseline.show(digits),
+            r.variant.show(digits),
             signed(&r.difference, digits),
-            r.p_variant_better.as_ref().map_or("–".into(), |p| show(p, 2)),
+            r.p_variant_better.as_ref().map_or("–".into(), |p| p.show(2)),
             r.verdict.words()
         );
     }

@@ -25,7 +25,7 @@ pub const MIN_RUNS_FOR_VERDICT: usize = 5;
 const SEED: u64 = 0x5EED_CAFE;
 
 /// A point estimate and its 95 % interval.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Interval {
     pub point: f64,
     pub lo: f64,
