@@ -200,7 +200,8 @@ pub fn check_attached_weights(a: &Ablation, weights: &[(PathBuf, Option<u32>)]) 
 
 /// The Markdown report: the groups' headline numbers, tracking, gait, and every policy's own row.
 pub fn markdown(a: &Ablation) -> Result<String> {
-    let paper = report::paper()?;
+    let paper = paper(a)?;
+    let paper = paper.as_ref();
     let g = groups::group(&a.results);
     let grid_note = if a.extent.paper_push_range() {
         String::new()
@@ -234,14 +235,19 @@ pub fn markdown(a: &Ablation) -> Result<String> {
     Ok(format!(
         "{protocol}\n\n## Headline numbers\n\n{grid_note}{}\n## The paper's claims and the bars, checked\n\n{}\n## Commanded velocity \
          tracking\n{}\n## Gait\n\n{}\n## Intervals\n\n{}\n## Each policy\n\n{}",
-        groups::headline_markdown(&g, &paper, a.extent.resolution().push),
-        super::claims::markdown(&super::claims::check(&g, a.extent.resolution())),
-        groups::tracking_markdown(&g, &paper),
+        groups::headline_markdown(&g, paper, a.extent.resolution().push),
+        super::claims::markdown(&super::claims::check(&g, a.extent.resolution(), paper)),
+        groups::tracking_markdown(&g, paper),
         groups::gait_markdown(&g),
         groups::intervals_markdown(&g, a.extent.resolution().push),
         groups::per_policy_markdown(&a.results),
     )
     .replace("## Each policy", &format!("{field}## Each policy")))
+}
+
+/// The paper's tables when every policy measured is TopA's (`report::paper_for`).
+fn paper(a: &Ablation) -> Result<Option<report::PaperTables>> {
+    report::paper_for(a.results.iter().map(|r| r.trained_on.as_str()))
 }
 
 /// The perturbation test's group scores with their intervals, and what they came from.
@@ -259,7 +265,7 @@ fn physics_summary(p: &super::physics::report::PhysicsReport) -> String {
 /// The real-world test's tables and claims, when a field report is attached (empty otherwise).
 fn field_section(a: &Ablation) -> Result<String> {
     Ok(match &a.field {
-        Some(f) => format!("{}\n{}", super::field::markdown(f, &report::paper()?), super::field::claims_markdown(f)),
+        Some(f) => format!("{}\n{}", super::field::markdown(f, super::field::paper(f)?.as_ref()), super::field::claims_markdown(f)),
         None => String::new(),
     })
 }
@@ -268,15 +274,16 @@ fn field_section(a: &Ablation) -> Result<String> {
 /// and every seed's bars), "summary" (the group claims, and the bars one line per group), "field" (the real-world
 /// test's tables and claims) or "field_tables".
 pub fn section(a: &Ablation, kind: &str) -> Result<String> {
-    let paper = report::paper()?;
+    let paper = paper(a)?;
+    let paper = paper.as_ref();
     let g = groups::group(&a.results);
     match kind {
-        "headline" => Ok(groups::headline_markdown(&g, &paper, a.extent.resolution().push)),
-        "claims" => Ok(super::claims::markdown(&super::claims::check(&g, a.extent.resolution()))),
-        "summary" => Ok(super::claims::summary_markdown(&g, a.extent.resolution())),
+        "headline" => Ok(groups::headline_markdown(&g, paper, a.extent.resolution().push)),
+        "claims" => Ok(super::claims::markdown(&super::claims::check(&g, a.extent.resolution(), paper))),
+        "summary" => Ok(super::claims::summary_markdown(&g, a.extent.resolution(), paper)),
         "field" => field_section(a),
         "field_tables" => Ok(match &a.field {
-            Some(f) => super::field::markdown(f, &paper),
+            Some(f) => super::field::markdown(f, super::field::paper(f)?.as_ref()),
             None => String::new(),
         }),
         "terrain" => Ok(a.terrain.as_ref().map_or(String::new(), super::terrain_report::markdown)),
@@ -524,6 +531,7 @@ mod tests {
                 name: Group::C,
                 policy: shipped.into(),
                 weights_crc32: measured,
+                trained_on: None,
                 modes: vec![],
             }],
         };

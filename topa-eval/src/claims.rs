@@ -4,6 +4,7 @@
 use std::fmt::Write as _;
 
 use super::groups::{GroupResults, Stat};
+use super::report::PaperTables;
 use super::intervals::{self, Interval, Resampling, Scores};
 use super::results::{Group, PolicyResults};
 
@@ -82,8 +83,9 @@ fn known(s: Stat) -> Option<Stat> {
 
 /// The claims that compare groups (O, C, CA by name), and the bars each C and C+A policy must meet. A comparison
 /// holds when the 95 % interval of the difference lies above zero (rliable's reading), fails when it lies below.
-pub fn check(groups: &[GroupResults], res: Resolution) -> Vec<Claim> {
-    let mut out = group_claims(groups, res);
+/// `paper`: the paper's tables, whose numbers the claims quote beside ours (None for a robot other than TopA).
+pub fn check(groups: &[GroupResults], res: Resolution, paper: Option<&PaperTables>) -> Vec<Claim> {
+    let mut out = group_claims(groups, res, paper);
     for g in groups.iter().filter(|g| matches!(g.name, Group::C | Group::CA)) {
         for r in &g.members {
             out.extend(policy_bars(r));
@@ -93,12 +95,11 @@ pub fn check(groups: &[GroupResults], res: Resolution) -> Vec<Claim> {
 }
 
 /// The claims about groups (orderings, differences with their intervals), without the per-seed bars.
-fn group_claims(groups: &[GroupResults], res: Resolution) -> Vec<Claim> {
+fn group_claims(groups: &[GroupResults], res: Resolution, paper: Option<&PaperTables>) -> Vec<Claim> {
     let mut out = Vec::new();
     let t = |name: Group| find(groups, name).and_then(|g| known(g.t_fall_standing()));
     let (o, c, ca) = (t(Group::O), t(Group::C), t(Group::CA));
-    let paper = super::report::paper().unwrap_or_default();
-    let paper_t = |g: Group| paper.push_mean_t_fall.get(g.key()).map_or("–".into(), |x| format!("{x:.2}"));
+    let paper_t = |g: Group| paper.and_then(|p| p.push_mean_t_fall.get(g.key())).map_or("–".into(), |x| format!("{x:.2}"));
     out.push(Claim {
         statement: "mean t_fall (standing pushes): O < C < C+A, on the means".into(),
         holds: match (o, c, ca) {
@@ -106,13 +107,14 @@ fn group_claims(groups: &[GroupResults], res: Resolution) -> Vec<Claim> {
             _ => None,
         },
         evidence: format!(
-            "O {}, C {}, C+A {} s (mean ± sd; paper {} < {} < {})",
+            "O {}, C {}, C+A {} s (mean ± sd{})",
             o.map_or("–".into(), |s| s.show(2)),
             c.map_or("–".into(), |s| s.show(2)),
             ca.map_or("–".into(), |s| s.show(2)),
-            paper_t(Group::O),
-            paper_t(Group::C),
-            paper_t(Group::CA)
+            match paper {
+                Some(_) => format!("; paper {} < {} < {}", paper_t(Group::O), paper_t(Group::C), paper_t(Group::CA)),
+                None => String::new(),
+            }
         ),
         undecided: "–",
     });
@@ -129,7 +131,10 @@ fn group_claims(groups: &[GroupResults], res: Resolution) -> Vec<Claim> {
             out.push(Claim {
                 statement: format!("C+A mean t_fall ≥ {MIN_CA_T_FALL_S} s"),
                 holds: Some(ci.point >= MIN_CA_T_FALL_S),
-                evidence: format!("{} s (paper {})", ci.show(2), paper_t(Group::CA)),
+                evidence: match paper {
+                    Some(_) => format!("{} s (paper {})", ci.show(2), paper_t(Group::CA)),
+                    None => format!("{} s", ci.show(2)),
+                },
                 undecided: "–",
             });
         }
@@ -153,8 +158,8 @@ fn group_claims(groups: &[GroupResults], res: Resolution) -> Vec<Claim> {
 
 /// The claims about groups as a table, then per group one line on the per-seed bars: how many seeds meet all of
 /// them, and what each other seed misses (the full report lists every bar of every seed).
-pub fn summary_markdown(groups: &[GroupResults], res: Resolution) -> String {
-    let mut s = markdown(&group_claims(groups, res));
+pub fn summary_markdown(groups: &[GroupResults], res: Resolution, paper: Option<&PaperTables>) -> String {
+    let mut s = markdown(&group_claims(groups, res, paper));
     s.push('\n');
     for g in groups.iter().filter(|g| matches!(g.name, Group::C | Group::CA)) {
         let misses: Vec<String> = g
@@ -346,7 +351,7 @@ mod tests {
     #[test]
     fn the_ordering_is_on_means_and_the_margins_on_intervals() {
         let r = five_seeds();
-        let c = check(&group(&r), FULL);
+        let c = check(&group(&r), FULL, None);
         assert_eq!(verdict(&c, "mean t_fall (standing pushes): O < C < C+A"), Some(true));
         assert_eq!(verdict(&c, "C − O under standing pushes"), Some(true), "3.3 s, no overlap");
         let margin = c.iter().find(|x| x.statement.starts_with("C+A − C under standing pushes")).unwrap();
@@ -365,15 +370,15 @@ mod tests {
             x.noise[1].success_pct = 10.0;
             x.noise[1].successes = 10;
         }
-        assert_eq!(verdict(&check(&group(&worse), FULL), "C+A − C success at command-noise level 2"), Some(false));
+        assert_eq!(verdict(&check(&group(&worse), FULL, None), "C+A − C success at command-noise level 2"), Some(false));
         // Fewer than five seeds: the interval is shown, the verdict withheld.
         let three: Vec<PolicyResults> =
             r.iter().filter(|x| x.name != Group::C || x.policy.ends_with("C4.json")).cloned().collect();
-        let c3 = check(&group(&three), FULL);
+        let c3 = check(&group(&three), FULL, None);
         let m = c3.iter().find(|x| x.statement.starts_with("C − O under standing pushes")).unwrap();
         assert!(m.holds.is_none() && m.undecided.contains("fewer than 5 seeds"), "{m:?}");
         // The quick protocol says that it cannot decide, rather than deciding.
-        let quick = check(&group(&r), Resolution { push: Resampling { tasks: true }, quick: true });
+        let quick = check(&group(&r), Resolution { push: Resampling { tasks: true }, quick: true }, None);
         let m = quick.iter().find(|x| x.statement.starts_with("C+A − C under standing pushes")).unwrap();
         assert!(m.holds.is_none() && m.undecided.contains("quick protocol is too coarse"), "{m:?}");
         // C+A seed 2 misses two bars: its worst component (0.2) and its air time (0.15 s).
@@ -385,21 +390,40 @@ mod tests {
         bistable[5].tracking[1].stood_still = Some(4);
         bistable[5].tracking[1].fell = true;
         bistable[5].tracking[1].falls = Some(2);
-        let c = check(&group(&bistable), FULL);
+        let c = check(&group(&bistable), FULL, None);
         let claim = |s: &str| c.iter().find(|x| x.statement.starts_with(s)).expect(s).clone();
         let still = claim("C C1.json: no start stands still");
         assert_eq!((still.holds, still.evidence.as_str()), (Some(false), "stood still on rotate_cw (4/10)"));
         assert_eq!(claim("C C1.json: no fall").evidence, "fell on rotate_cw (2/10)");
         assert_eq!(claim("C+A CA1.json: no start stands still").holds, Some(true));
         let stand_claims = |r: &[PolicyResults]| {
-            check(&group(r), FULL).iter().filter(|x| x.statement.starts_with("C C1.json: no start stands")).count()
+            check(&group(r), FULL, None).iter().filter(|x| x.statement.starts_with("C C1.json: no start stands")).count()
         };
         assert_eq!(stand_claims(&bistable), 1);
         bistable[5].tracking[0].stood_still = None;
         assert_eq!(stand_claims(&bistable), 0, "the report has no count on walk_forward");
         // No O group: no ordering verdict.
         let single = vec![policy("C", 1, 8.0, [90.0, 40.0], 0.1, 0.25), policy("CA", 1, 9.5, [95.0, 60.0], 0.1, 0.25)];
-        assert_eq!(verdict(&check(&group(&single), FULL), "mean t_fall (standing pushes): O < C < C+A"), None);
+        assert_eq!(verdict(&check(&group(&single), FULL, None), "mean t_fall (standing pushes): O < C < C+A"), None);
+    }
+
+    #[test]
+    fn the_papers_numbers_are_quoted_only_with_its_tables() {
+        let r = five_seeds();
+        let evidence = |paper: Option<&PaperTables>| {
+            let c = check(&group(&r), FULL, paper);
+            let find = |s: &str| c.iter().find(|x| x.statement.starts_with(s)).unwrap().evidence.clone();
+            (find("mean t_fall (standing pushes)"), find("C+A mean t_fall"))
+        };
+        let tables = crate::report::paper().unwrap();
+        let (order, ca) = evidence(Some(&tables));
+        assert!(order.ends_with("(mean ± sd; paper 4.77 < 8.48 < 9.71)"), "{order}");
+        assert!(ca.ends_with(" s (paper 9.71)"), "{ca}");
+        // Another robot's report (report::paper_for gives None) states ours alone.
+        let (order, ca) = evidence(None);
+        assert!(order.ends_with(" s (mean ± sd)") && !ca.contains("paper"), "{order} / {ca}");
+        assert!(crate::report::paper_for(["topa_closed", "topa_open"]).unwrap().is_some());
+        assert!(crate::report::paper_for(["topa_closed", "cassie"]).unwrap().is_none());
     }
 
     #[test]

@@ -46,6 +46,9 @@ pub struct FieldPolicy {
     /// CRC-32 of the weights measured (as in `PolicyResults`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub weights_crc32: Option<u32>,
+    /// The robot spec it was trained on (absent in reports written before it was recorded, all of them TopA's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trained_on: Option<String>,
     pub modes: Vec<FieldMode>,
 }
 
@@ -79,7 +82,8 @@ pub fn run(policies: &[(Group, PathBuf)], base: &EvalSettings, extent: &FieldExt
             modes.push(FieldMode { sim2sim: mode.clone(), course, endurance });
         }
         let weights_crc32 = Some(runner.policy.meta.weights_crc32);
-        results.push(FieldPolicy { name: *group, policy: path.clone(), weights_crc32, modes });
+        let trained_on = Some(runner.trained_on().to_string());
+        results.push(FieldPolicy { name: *group, policy: path.clone(), weights_crc32, trained_on, modes });
     }
     Ok(Field { extent: extent.clone(), settings: base.clone(), results })
 }
@@ -218,14 +222,15 @@ fn physics(base: &EvalSettings, mode: &Sim2SimMode) -> String {
 }
 
 /// The group table per mode, with the paper's numbers beside.
-pub fn markdown(f: &Field, paper: &PaperTables) -> String {
+pub fn markdown(f: &Field, paper: Option<&PaperTables>) -> String {
     let e = &f.extent;
     let mut s = format!(
         "Course {} at top speeds {:?} m/s (the best clean time is the fastest run with no intervention); a {}-minute \
-         run under a joystick operator with pushes. Cells: ours (paper, the real robot).\n",
+         run under a joystick operator with pushes.{}\n",
         e.course.display(),
         e.speeds,
-        e.endurance_minutes
+        e.endurance_minutes,
+        if paper.is_some() { " Cells: ours (paper, the real robot)." } else { "" }
     );
     for mode in &e.modes {
         s.push_str(&format!(
@@ -236,12 +241,15 @@ pub fn markdown(f: &Field, paper: &PaperTables) -> String {
         ));
         for g in by_group(f, mode) {
             let times: Vec<f64> = g.clean_times().iter().map(|t| t / 60.0).collect();
-            let paper_time = match g.group {
-                Group::O => " (did not finish)".to_string(),
-                k => paper.course_minutes.get(k.key()).map_or(String::new(), |m| format!(" ({m:.1})")),
+            let paper_time = match (paper, g.group) {
+                (None, _) => String::new(),
+                (Some(_), Group::O) => " (did not finish)".to_string(),
+                (Some(p), k) => p.course_minutes.get(k.key()).map_or(String::new(), |m| format!(" ({m:.1})")),
             };
-            let paper_endurance =
-                if g.group == Group::CA { format!(" ({:.0} min)", paper.continuous_minutes_ca) } else { String::new() };
+            let paper_endurance = match paper {
+                Some(p) if g.group == Group::CA => format!(" ({:.0} min)", p.continuous_minutes_ca),
+                _ => String::new(),
+            };
             s.push_str(&format!(
                 "| {} | {} | {}/{} | {}/{} | {}{paper_time} | {} | {}/{}{paper_endurance} | {} |\n",
                 g.group.label(),
@@ -361,9 +369,15 @@ fn faster_claim(mode: &Sim2SimMode, tc: &[f64], nc: usize, tca: &[f64], nca: usi
     )
 }
 
+/// The paper's tables when every policy driven is TopA's (`report::paper_for`; a report without the robots
+/// recorded is TopA's).
+pub fn paper(f: &Field) -> Result<Option<PaperTables>> {
+    report::paper_for(f.results.iter().map(|r| r.trained_on.as_deref().unwrap_or("topa_closed")))
+}
+
 /// Writes field.md and field.json into `out`.
 pub fn write(f: &Field, out: &Path) -> Result<String> {
-    let md = format!("{}\n{}", markdown(f, &report::paper()?), claims_markdown(f));
+    let md = format!("{}\n{}", markdown(f, paper(f)?.as_ref()), claims_markdown(f));
     report::write_text(out, "field.md", &md)?;
     report::write_json(out, "field.json", f)?;
     Ok(md)
@@ -396,6 +410,7 @@ mod tests {
             name,
             policy: file.into(),
             weights_crc32: None,
+            trained_on: None,
             modes: vec![FieldMode {
                 sim2sim: Sim2SimMode::Ideal,
                 course: CourseResult { course: "t".into(), length_m: 100.0, runs },
@@ -432,9 +447,15 @@ mod tests {
         // but on one and two seeds: no verdict; C+A 40 minutes clean.
         assert_eq!(holds, [Some(true), Some(true), Some(true), None, Some(true)], "{c:?}");
         assert!(c[3].2.contains("C 295 ± 148 s (2/2 seeds clean)"), "{}", c[3].2);
-        let md = markdown(&f, &report::paper().unwrap());
+        let md = markdown(&f, Some(&report::paper().unwrap()));
         assert!(md.contains("| O | 1 | 1/1 | 0/1 | – (did not finish) | 5.0 |"), "{md}");
         assert!(md.contains("| C+A | 1 | 1/1 | 1/1 | 2.50 (3.1) |"), "{md}");
+        // Another robot's runs: ours alone, none of the paper's numbers beside them.
+        let mut other = f.clone();
+        other.results.iter_mut().for_each(|r| r.trained_on = Some("cassie".into()));
+        let md = markdown(&other, paper(&other).unwrap().as_ref());
+        assert!(md.contains("| O | 1 | 1/1 | 0/1 | – | 5.0 |") && md.contains("| C+A | 1 | 1/1 | 1/1 | 2.50 |"), "{md}");
+        assert!(!md.contains("(paper") && paper(&f).unwrap().is_some(), "{md}");
 
         // Five seeds each: C+A clearly faster, then clearly slower — decided both ways, with the interval.
         let seeds = |g: Group, times: [f64; 5], interventions: usize| -> Vec<FieldPolicy> {

@@ -109,7 +109,7 @@ fn paper_cell(ours: String, paper: Option<String>) -> String {
 
 /// The headline table: push (standing, walking), command noise, tracking falls, worst tracking component — each
 /// as the group's mean with its bootstrap 95 % interval (`intervals`), the paper's value beside.
-pub fn headline_markdown(groups: &[GroupResults], paper: &PaperTables, how: Resampling) -> String {
+pub fn headline_markdown(groups: &[GroupResults], paper: Option<&PaperTables>, how: Resampling) -> String {
     let levels = groups.iter().flat_map(|g| g.members.iter().map(|r| r.noise.len())).max().unwrap_or(0);
     let mut s = String::from("| Group | policies | mean t_fall standing (s) | mean t_fall walking v_x = 0.5 (s) |");
     for i in 0..levels {
@@ -120,7 +120,7 @@ pub fn headline_markdown(groups: &[GroupResults], paper: &PaperTables, how: Resa
     s.push('\n');
     let per_seed = Resampling { tasks: false };
     for g in groups {
-        let p = paper.push_mean_t_fall.get(g.name.key()).map(|x| format!("{x:.2}"));
+        let p = paper.and_then(|t| t.push_mean_t_fall.get(g.name.key())).map(|x| format!("{x:.2}"));
         let _ = write!(
             s,
             "| {} | {} | {} | {} |",
@@ -130,7 +130,7 @@ pub fn headline_markdown(groups: &[GroupResults], paper: &PaperTables, how: Resa
             intervals::interval(&g.push_scores(true), how, intervals::mean).show(2)
         );
         for i in 0..levels {
-            let p = paper.noise_success.get(g.name.key()).and_then(|v| v.get(i)).map(|x| format!("{x:.0}"));
+            let p = paper.and_then(|t| t.noise_success.get(g.name.key())).and_then(|v| v.get(i)).map(|x| format!("{x:.0}"));
             let ours = intervals::interval(&g.noise_scores(i), per_seed, intervals::mean).show(0);
             let _ = write!(s, " {} |", paper_cell(ours, p));
         }
@@ -141,12 +141,13 @@ pub fn headline_markdown(groups: &[GroupResults], paper: &PaperTables, how: Resa
     let _ = writeln!(
         s,
         "\nmean over each group's policies [95 % confidence interval: bootstrap over the group's seeds{}, {} \
-         replicates; noise success redrawn from its runs]; cells: ours (paper). Tracking falls and stand-stills: runs (each of the six commands from \
+         replicates; noise success redrawn from its runs]{}. Tracking falls and stand-stills: runs (each of the six commands from \
          each initial state) that fell, or whose mean velocity along the command stayed below a quarter of it, over \
          all the group's policies; worst component MAE: the largest of the three per-component errors (whole \
          window, mean over the starts) over the six commands, per policy.",
         if how.tasks { " and the grid's cells (a sample of the paper's grid)" } else { "" },
-        intervals::REPLICATES
+        intervals::REPLICATES,
+        if paper.is_some() { "; cells: ours (paper)" } else { "" }
     );
     s
 }
@@ -178,7 +179,7 @@ pub fn intervals_markdown(groups: &[GroupResults], how: Resampling) -> String {
 }
 
 /// Tracking per command and group: per-component MAE, their sum (the paper's column), falls, τ̄, roll, pitch.
-pub fn tracking_markdown(groups: &[GroupResults], paper: &PaperTables) -> String {
+pub fn tracking_markdown(groups: &[GroupResults], paper: Option<&PaperTables>) -> String {
     let mut s = String::new();
     for (ci, (key, title, _)) in COMMANDS.iter().enumerate() {
         let _ = writeln!(s, "\n**{title}**\n");
@@ -188,7 +189,7 @@ pub fn tracking_markdown(groups: &[GroupResults], paper: &PaperTables) -> String
         );
         for g in groups {
             let row = |f: &dyn Fn(&super::results::TrackingRow) -> f64| g.stat(|r| f(&r.tracking[ci]));
-            let p = paper.tracking.get(*key).and_then(|m| m.get(g.name.key()));
+            let p = paper.and_then(|t| t.tracking.get(*key)).and_then(|m| m.get(g.name.key()));
             let pf =
                 |i: usize, d: usize| p.map(|p| format!("{:.d$}{}", p[i], if i == 0 && p[4] > 0.5 { "*" } else { "" }));
             let n = RunCounts::of(g.members.iter().map(|r| &r.tracking[ci]));

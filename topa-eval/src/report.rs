@@ -32,6 +32,17 @@ pub struct PaperTables {
     pub continuous_minutes_ca: f64,
 }
 
+/// The paper's tables for a report on policies trained on `robots` (spec names): TopA's numbers belong beside
+/// TopA's policies only (O on its serial model, C and C+A on its closed chain); beside another robot's they would
+/// read as that robot's targets. None for any other robot.
+pub fn paper_for<'a>(robots: impl IntoIterator<Item = &'a str>) -> Result<Option<PaperTables>> {
+    if robots.into_iter().all(|r| matches!(r, "topa_closed" | "topa_open")) {
+        paper().map(Some)
+    } else {
+        Ok(None)
+    }
+}
+
 pub fn paper() -> Result<PaperTables> {
     let v: toml::Value = toml::from_str(PAPER_TOML).map_err(|e| Error::file("data/paper_tables.toml", e))?;
     // The table is compiled in and checked by the tests: a missing entry is a broken build, named by its key.
