@@ -265,7 +265,11 @@ fn physics_summary(p: &super::physics::report::PhysicsReport) -> String {
 /// The real-world test's tables and claims, when a field report is attached (empty otherwise).
 fn field_section(a: &Ablation) -> Result<String> {
     Ok(match &a.field {
-        Some(f) => format!("{}\n{}", super::field::markdown(f, super::field::paper(f)?.as_ref()), super::field::claims_markdown(f)),
+        Some(f) => format!(
+            "{}\n{}",
+            super::field::markdown(f, super::field::paper(f)?.as_ref()),
+            super::field::claims_markdown(f)
+        ),
         None => String::new(),
     })
 }

@@ -4,8 +4,8 @@
 use std::fmt::Write as _;
 
 use super::groups::{GroupResults, Stat};
-use super::report::PaperTables;
 use super::intervals::{self, Interval, Resampling, Scores};
+use super::report::PaperTables;
 use super::results::{Group, PolicyResults};
 
 /// One checked statement.
@@ -99,7 +99,8 @@ fn group_claims(groups: &[GroupResults], res: Resolution, paper: Option<&PaperTa
     let mut out = Vec::new();
     let t = |name: Group| find(groups, name).and_then(|g| known(g.t_fall_standing()));
     let (o, c, ca) = (t(Group::O), t(Group::C), t(Group::CA));
-    let paper_t = |g: Group| paper.and_then(|p| p.push_mean_t_fall.get(g.key())).map_or("–".into(), |x| format!("{x:.2}"));
+    let paper_t =
+        |g: Group| paper.and_then(|p| p.push_mean_t_fall.get(g.key())).map_or("–".into(), |x| format!("{x:.2}"));
     out.push(Claim {
         statement: "mean t_fall (standing pushes): O < C < C+A, on the means".into(),
         holds: match (o, c, ca) {
@@ -370,7 +371,10 @@ mod tests {
             x.noise[1].success_pct = 10.0;
             x.noise[1].successes = 10;
         }
-        assert_eq!(verdict(&check(&group(&worse), FULL, None), "C+A − C success at command-noise level 2"), Some(false));
+        assert_eq!(
+            verdict(&check(&group(&worse), FULL, None), "C+A − C success at command-noise level 2"),
+            Some(false)
+        );
         // Fewer than five seeds: the interval is shown, the verdict withheld.
         let three: Vec<PolicyResults> =
             r.iter().filter(|x| x.name != Group::C || x.policy.ends_with("C4.json")).cloned().collect();
@@ -397,7 +401,10 @@ mod tests {
         assert_eq!(claim("C C1.json: no fall").evidence, "fell on rotate_cw (2/10)");
         assert_eq!(claim("C+A CA1.json: no start stands still").holds, Some(true));
         let stand_claims = |r: &[PolicyResults]| {
-            check(&group(r), FULL, None).iter().filter(|x| x.statement.starts_with("C C1.json: no start stands")).count()
+            check(&group(r), FULL, None)
+                .iter()
+                .filter(|x| x.statement.starts_with("C C1.json: no start stands"))
+                .count()
         };
         assert_eq!(stand_claims(&bistable), 1);
         bistable[5].tracking[0].stood_still = None;

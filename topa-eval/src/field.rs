@@ -454,7 +454,10 @@ mod tests {
         let mut other = f.clone();
         other.results.iter_mut().for_each(|r| r.trained_on = Some("cassie".into()));
         let md = markdown(&other, paper(&other).unwrap().as_ref());
-        assert!(md.contains("| O | 1 | 1/1 | 0/1 | – | 5.0 |") && md.contains("| C+A | 1 | 1/1 | 1/1 | 2.50 |"), "{md}");
+        assert!(
+            md.contains("| O | 1 | 1/1 | 0/1 | – | 5.0 |") && md.contains("| C+A | 1 | 1/1 | 1/1 | 2.50 |"),
+            "{md}"
+        );
         assert!(!md.contains("(paper") && paper(&f).unwrap().is_some(), "{md}");
 
         // Five seeds each: C+A clearly faster, then clearly slower — decided both ways, with the interval.

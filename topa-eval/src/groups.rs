@@ -130,7 +130,8 @@ pub fn headline_markdown(groups: &[GroupResults], paper: Option<&PaperTables>, h
             intervals::interval(&g.push_scores(true), how, intervals::mean).show(2)
         );
         for i in 0..levels {
-            let p = paper.and_then(|t| t.noise_success.get(g.name.key())).and_then(|v| v.get(i)).map(|x| format!("{x:.0}"));
+            let p =
+                paper.and_then(|t| t.noise_success.get(g.name.key())).and_then(|v| v.get(i)).map(|x| format!("{x:.0}"));
             let ours = intervals::interval(&g.noise_scores(i), per_seed, intervals::mean).show(0);
             let _ = write!(s, " {} |", paper_cell(ours, p));
         }
