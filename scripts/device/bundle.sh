@@ -2,7 +2,9 @@
 # Packs the release `topa` and every shared library it loads (libmujoco and its dependencies, glibc and the loader
 # included) into .device/bundle, so that the binary runs on a machine without Rust, MuJoCo or Debian's glibc
 # (the lent 16-core machine). Run it from the repository root after `cargo build --release`; on that machine
-# start the binary through the carried loader: `.device/bundle/run topa …`.
+# start the binary through the carried loader: `.device/bundle/run topa …`. The repository's own files and the bundle
+# together pass the 64 MiB that a call may carry, so it is also packed as .device/bundle.txz (about a quarter of its
+# size): carry that file alone; seeds.sh and sweep.sh unpack it there.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 bin="${CARGO_TARGET_DIR:-target}/release/topa"
@@ -22,4 +24,5 @@ prog="$1"; shift
 exec "$here/lib/ld-linux-x86-64.so.2" --library-path "$here/lib" "$here/$prog" "$@"
 SH
 chmod +x "$out/run"
-du -sh "$out"
+tar -C .device -cJf .device/bundle.txz bundle
+du -sh "$out" .device/bundle.txz

@@ -4,9 +4,13 @@
 # checkpoint: at most checkpoint_every iterations are lost) and packs the run folders into $OUT/runs.tgz.aa, .ab, …
 # (12 MB parts: a file brought back may not pass 16 MiB), to be joined here (`cat runs.tgz.* | tar xzf -`) and
 # resumed with `topa train --resume`. A run folder already there (a second call on a warm machine) is resumed.
-# Needs the bundle of bundle.sh (carry .device).
+# Needs the bundle of bundle.sh (carry .device/bundle.txz, or .device where the repository is small enough).
 set -uo pipefail
 cd "$(dirname "$0")/../.."
+# The bundle travels packed (bundle.sh): unpack it on first use.
+if [ ! -x .device/bundle/run ] && [ -f .device/bundle.txz ]; then
+  python3 -c "import tarfile; tarfile.open('.device/bundle.txz').extractall('.device')"
+fi
 threads="${THREADS:-5}"; seconds="${SECONDS_TO_RUN:-500}"
 lscpu | grep -E "^Model name|^CPU\(s\)"
 echo "AVX-512: $(grep -o -w -E 'avx512(f|bw|vl|_bf16)' /proc/cpuinfo | sort -u | tr '\n' ' ')"

@@ -3,9 +3,14 @@
 # command that started it) with THREADS threads, run folders under RUNS. Used for lever sweeps on the 16-core
 # machine (with the bundle of bundle.sh) and for seed trainings here. Re-running it resumes every run that has a
 # checkpoint. Environment: RUNS (default runs/sweep), THREADS (default 2), TOPA (default: the bundle's launcher
-# if present, else target/release/topa), EXTRA (more arguments for new runs, e.g. "--model open").
+# if present, else target/release/topa), EXTRA (more arguments for new runs, e.g. "--model open"; {seed} stands for
+# the run's seed: "--adversary --init-from .device/init/C-{seed}" forks each seed's C into the adversary).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
+# The bundle travels packed (bundle.sh): unpack it on first use.
+if [ ! -x .device/bundle/run ] && [ -f .device/bundle.txz ]; then
+  python3 -c "import tarfile; tarfile.open('.device/bundle.txz').extractall('.device')"
+fi
 runs="${RUNS:-runs/sweep}"
 threads="${THREADS:-2}"
 if [ -z "${TOPA:-}" ]; then
@@ -20,7 +25,7 @@ for spec in "$@"; do
     args=(train --resume "$dir" --threads "$threads" --quiet)
   else
     # shellcheck disable=SC2206
-    args=(train --config "$cfg" --seed "$seed" --out "$dir" --threads "$threads" --quiet ${EXTRA:-})
+    args=(train --config "$cfg" --seed "$seed" --out "$dir" --threads "$threads" --quiet ${EXTRA//\{seed\}/$seed})
   fi
   # shellcheck disable=SC2086
   setsid nohup $TOPA "${args[@]}" >>"$runs/$name.log" 2>&1 < /dev/null &
