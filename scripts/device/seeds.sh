@@ -7,10 +7,8 @@
 # Needs the bundle of bundle.sh (carry .device/bundle.txz, or .device where the repository is small enough).
 set -uo pipefail
 cd "$(dirname "$0")/../.."
-# The bundle travels packed (bundle.sh): unpack it on first use.
-if [ ! -x .device/bundle/run ] && [ -f .device/bundle.txz ]; then
-  python3 -c "import tarfile; tarfile.open('.device/bundle.txz').extractall('.device')"
-fi
+# shellcheck source=scripts/device/unpack.sh
+source scripts/device/unpack.sh
 threads="${THREADS:-5}"; seconds="${SECONDS_TO_RUN:-500}"
 lscpu | grep -E "^Model name|^CPU\(s\)"
 echo "AVX-512: $(grep -o -w -E 'avx512(f|bw|vl|_bf16)' /proc/cpuinfo | sort -u | tr '\n' ' ')"

@@ -7,10 +7,8 @@
 # the run's seed: "--adversary --init-from .device/init/C-{seed}" forks each seed's C into the adversary).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-# The bundle travels packed (bundle.sh): unpack it on first use.
-if [ ! -x .device/bundle/run ] && [ -f .device/bundle.txz ]; then
-  python3 -c "import tarfile; tarfile.open('.device/bundle.txz').extractall('.device')"
-fi
+# shellcheck source=scripts/device/unpack.sh
+source scripts/device/unpack.sh
 runs="${RUNS:-runs/sweep}"
 threads="${THREADS:-2}"
 if [ -z "${TOPA:-}" ]; then
