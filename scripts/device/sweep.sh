@@ -11,6 +11,7 @@ cd "$(dirname "$0")/../.."
 source scripts/device/unpack.sh
 runs="${RUNS:-runs/sweep}"
 threads="${THREADS:-2}"
+extra="${EXTRA:-}"
 if [ -z "${TOPA:-}" ]; then
   if [ -x .device/bundle/run ]; then TOPA=".device/bundle/run topa"; else TOPA="${CARGO_TARGET_DIR:-target}/release/topa"; fi
 fi
@@ -23,7 +24,7 @@ for spec in "$@"; do
     args=(train --resume "$dir" --threads "$threads" --quiet)
   else
     # shellcheck disable=SC2206
-    args=(train --config "$cfg" --seed "$seed" --out "$dir" --threads "$threads" --quiet ${EXTRA//\{seed\}/$seed})
+    args=(train --config "$cfg" --seed "$seed" --out "$dir" --threads "$threads" --quiet ${extra//\{seed\}/$seed})
   fi
   # shellcheck disable=SC2086
   setsid nohup $TOPA "${args[@]}" >>"$runs/$name.log" 2>&1 < /dev/null &
