@@ -95,6 +95,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             println!("{} panels → {} (and {})", layout.len(), out.display(), out.with_extension("svg").display());
             Ok(())
         }
+        Cmd::Average { run, from, every, out } => {
+            if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir)?;
+            }
+            let named = out.extension().is_some_and(|e| e == "json" || e == "safetensors");
+            let stem = if named { out.with_extension("") } else { out.clone() };
+            let (file, its) = topa_train::policy::average_run(&run, from, every, &stem)?;
+            println!("wrote {} (the weight average of iterations {its:?})", file.display());
+            Ok(())
+        }
         Cmd::Export { policy, onnx, controller, motor_targets, check } => {
             if let Some(dir) = &controller {
                 anyhow::ensure!(!check, "--check checks an ONNX file: drop --controller");

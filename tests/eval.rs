@@ -67,6 +67,7 @@ fn constant_policy(dir: &Path, name: &str, model: ModelKind, action: [f32; N_MOT
             with_adversary: false,
             trained_on: "test".into(),
             segments: vec![],
+            averaged_iterations: vec![],
         },
     };
     policy_file::save(&dir.join(name), &mlp, None, &Normalizer::new(42, None), meta).unwrap()

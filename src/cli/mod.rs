@@ -232,6 +232,22 @@ pub(crate) enum Cmd {
     },
     /// Train a policy with PPO (symmetry loss, last-layer decay; --adversary for the cyclic adversary).
     Train(TrainArgs),
+    /// Weight averaging: one policy from a run's late checkpoints, the mean of their actor (and estimator) weights,
+    /// each checkpoint's normaliser folded in first (Nikishin et al. 2018; SWA). Evaluate it like any policy.
+    Average {
+        /// A `topa train --out` folder trained with `[run] keep_checkpoints = 0`.
+        #[arg(long)]
+        run: PathBuf,
+        /// The first iteration averaged.
+        #[arg(long)]
+        from: usize,
+        /// Average the checkpoints at multiples of this iteration (and the last).
+        #[arg(long, default_value_t = 25)]
+        every: usize,
+        /// Output policy (`<OUT>.json` and `<OUT>.safetensors`).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// The simulator as a robot on the wire: MuJoCo in real time, the drives' PD and watchdog on its side, sensor
     /// frames to a controller in another process (`topa control`) and its motor commands back, over UDP.
     SimRobot(SimRobotArgs),

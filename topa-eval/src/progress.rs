@@ -13,7 +13,7 @@ use super::claims;
 use super::results::{RunCounts, TrackingRow};
 use super::settings::EvalSettings;
 use super::{push, tracking};
-use crate::error::{ensure, invalid, Error, Result};
+use crate::error::{invalid, Error, Result};
 
 /// One checkpoint's policy through the tracking commands.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -69,34 +69,15 @@ impl RunProgress {
     }
 }
 
-/// The run's checkpoint sidecars whose iteration is a multiple of `every`, and its last one, in iteration order.
+/// The run's checkpoint sidecars whose iteration is a multiple of `every`, and its last one, in iteration order
+/// (two at least: a progress needs more than one point).
 pub fn checkpoints(run: &Path, every: usize) -> Result<Vec<(usize, PathBuf)>> {
-    ensure!(every >= 1, "--every must be at least 1 (an iteration step between the checkpoints evaluated)");
-    let dir = run.join("checkpoints");
-    let entries = std::fs::read_dir(&dir).map_err(|e| {
-        Error::file(format!("{} has no checkpoints folder: pass a `topa train --out` folder", run.display()), e)
-    })?;
-    let mut all: Vec<(usize, PathBuf)> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter_map(|p| {
-            let name = p.file_name()?.to_str()?;
-            let it = name.strip_prefix("ckpt_")?.strip_suffix(".json")?.parse().ok()?;
-            Some((it, p))
-        })
-        .collect();
-    all.sort();
-    let Some(last) = all.last().cloned() else {
-        invalid!("{} holds no checkpoint (ckpt_<iteration>.json)", dir.display());
-    };
-    let mut picked: Vec<(usize, PathBuf)> = all.into_iter().filter(|(it, _)| it % every == 0).collect();
-    if picked.last().is_none_or(|p| p.0 != last.0) {
-        picked.push(last);
-    }
+    let picked = topa_train::policy::kept_checkpoints(run, every)?;
     if picked.len() < 2 {
         invalid!(
             "{} keeps only {} checkpoint(s) at multiples of {every}: train with `[run] keep_checkpoints = 0` to keep \
              them all, or pass a smaller --every",
-            dir.display(),
+            run.join("checkpoints").display(),
             picked.len()
         );
     }

@@ -3,11 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use topa_env::observation::ObsLayout;
 use topa_env::TaskKind;
 use trainer::checkpoint;
-use trainer::policy_file::{self, PolicyMeta, Provenance};
+use trainer::policy_file::{self, Policy, PolicyMeta, Provenance};
 use trainer::Trainer;
 
 use crate::config::{env_config, with_env};
@@ -65,15 +65,16 @@ pub fn export_policy(t: &Trainer, out: &Path, command: &str) -> Result<PathBuf> 
             with_adversary: t.adversary.is_some(),
             trained_on: format!("{}, {}", today(), trainer::segments::this_machine()),
             segments: t.segments.clone(),
+            averaged_iterations: Vec::new(),
         },
     )?;
     let ac = &t.policy.ac;
     Ok(policy_file::save(&out.join("policy"), &ac.actor, ac.estimator.as_ref(), &t.policy.normalizer, meta)?)
 }
 
-/// Exports the policy of a kept checkpoint (its sidecar) as `<stem>.{safetensors,json}`, e.g. to evaluate a run
-/// part-way; the provenance is the checkpoint's (its iteration, samples and wall time so far).
-pub fn export_checkpoint(sidecar: &Path, stem: &Path) -> Result<PathBuf> {
+/// The policy of a kept checkpoint (its sidecar); the provenance is the checkpoint's (its iteration, samples and
+/// wall time so far).
+pub fn checkpoint_policy(sidecar: &Path) -> Result<Policy> {
     let (side, loaded) = checkpoint::read_sidecar(sidecar)?;
     let machine = side.segments.last().map_or("unrecorded machine".to_string(), |s| s.machine.clone());
     let meta = policy_meta(
@@ -89,9 +90,70 @@ pub fn export_checkpoint(sidecar: &Path, stem: &Path) -> Result<PathBuf> {
             with_adversary: side.with_adversary,
             trained_on: format!("{machine}; checkpoint {}", sidecar.file_name().unwrap_or_default().to_string_lossy()),
             segments: side.segments.clone(),
+            averaged_iterations: Vec::new(),
         },
     )?;
-    Ok(checkpoint::save_policy(&side, &loaded, stem, meta)?)
+    Ok(checkpoint::policy(&side, &loaded, meta)?)
+}
+
+/// Exports the policy of a kept checkpoint (its sidecar) as `<stem>.{safetensors,json}`, e.g. to evaluate a run
+/// part-way.
+pub fn export_checkpoint(sidecar: &Path, stem: &Path) -> Result<PathBuf> {
+    Ok(checkpoint_policy(sidecar)?.save(stem)?)
+}
+
+/// The run's kept checkpoint sidecars whose iteration is a multiple of `every`, and its last one, in iteration
+/// order.
+pub fn kept_checkpoints(run: &Path, every: usize) -> Result<Vec<(usize, PathBuf)>> {
+    if every == 0 {
+        return Err(Error::Invalid(
+            "--every must be at least 1 (an iteration step between the checkpoints taken)".into(),
+        ));
+    }
+    let dir = run.join("checkpoints");
+    let entries = std::fs::read_dir(&dir).map_err(|source| Error::Io {
+        action: "no checkpoints folder (pass a `topa train --out` folder):",
+        path: dir.clone(),
+        source,
+    })?;
+    let mut all: Vec<(usize, PathBuf)> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter_map(|p| {
+            let name = p.file_name()?.to_str()?;
+            let it = name.strip_prefix("ckpt_")?.strip_suffix(".json")?.parse().ok()?;
+            Some((it, p))
+        })
+        .collect();
+    all.sort();
+    let Some(last) = all.last().cloned() else {
+        return Err(Error::Run(format!("{} holds no checkpoint (ckpt_<iteration>.json)", dir.display())));
+    };
+    let mut picked: Vec<(usize, PathBuf)> = all.into_iter().filter(|(it, _)| it % every == 0).collect();
+    if picked.last().is_none_or(|p| p.0 != last.0) {
+        picked.push(last);
+    }
+    Ok(picked)
+}
+
+/// The weight average (`trainer::weight_average`) of the run's kept checkpoints from iteration `from` on (those at
+/// multiples of `every`, and the last), written as `<stem>.{safetensors,json}`; returns the file and the
+/// iterations averaged.
+pub fn average_run(run: &Path, from: usize, every: usize, stem: &Path) -> Result<(PathBuf, Vec<usize>)> {
+    let picked: Vec<(usize, PathBuf)> = kept_checkpoints(run, every)?.into_iter().filter(|c| c.0 >= from).collect();
+    if picked.len() < 2 {
+        return Err(Error::Run(format!(
+            "{} keeps {} checkpoint(s) from iteration {from} at multiples of {every}: averaging needs two or more \
+             (train with `[run] keep_checkpoints = 0` to keep them all, or pass a smaller --from or --every)",
+            run.display(),
+            picked.len()
+        )));
+    }
+    let policies = picked.iter().map(|(_, p)| checkpoint_policy(p)).collect::<Result<Vec<_>>>()?;
+    let names: Vec<String> = picked.iter().map(|(_, p)| p.display().to_string()).collect();
+    let mut mean = trainer::weight_average::average(&policies, &names)?;
+    let iterations: Vec<usize> = picked.iter().map(|c| c.0).collect();
+    mean.meta.provenance.averaged_iterations = iterations.clone();
+    Ok((mean.save(stem)?, iterations))
 }
 
 /// Today's date (UTC) as YYYY-MM-DD, for provenance records.

@@ -388,11 +388,10 @@ pub fn init_policy_from(t: &mut Trainer, side: &Sidecar, l: &Loaded, extra_input
     Ok(())
 }
 
-/// The checkpoint's policy as a deployable policy file (`<stem>.json` + `.safetensors`): its actor and normaliser,
-/// described by `meta` (the caller knows the task: robot, sizes, control settings). For studying a run's progress
-/// from its kept checkpoints.
-pub fn save_policy(side: &Sidecar, l: &Loaded, stem: &Path, meta: crate::policy_file::PolicyMeta) -> Result<PathBuf> {
-    let (_, actor, estimator) = crate::policy_file::read_networks(l, "policy.", &meta)?;
+/// The checkpoint's policy as a deployable policy (its actor and normaliser), described by `meta` (the caller knows
+/// the task: robot, sizes, control settings). For studying a run's progress from its kept checkpoints.
+pub fn policy(side: &Sidecar, l: &Loaded, meta: crate::policy_file::PolicyMeta) -> Result<crate::policy_file::Policy> {
+    let (view, actor, estimator) = crate::policy_file::read_networks(l, "policy.", &meta)?;
     let mut normalizer = crate::normalizer::Normalizer::new(side.obs_dim, None);
     let d = side.obs_dim;
     normalizer.set_stats(
@@ -400,5 +399,6 @@ pub fn save_policy(side: &Sidecar, l: &Loaded, stem: &Path, meta: crate::policy_
         l.f64("policy.normalizer.m2", &[d])?,
         side.policy.normalizer_count,
     )?;
-    crate::policy_file::save(stem, &actor, estimator.as_ref(), &normalizer, meta)
+    normalizer.frozen = true;
+    Ok(crate::policy_file::Policy::from_parts(meta, view, actor, estimator, normalizer))
 }

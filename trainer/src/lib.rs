@@ -41,6 +41,7 @@ pub mod symmetry;
 pub mod tensorfile;
 pub mod train;
 pub mod vec_env;
+pub mod weight_average;
 
 pub use config::TrainConfig;
 pub use error::{Error, Result};

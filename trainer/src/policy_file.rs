@@ -32,6 +32,9 @@ pub struct Provenance {
     /// `wall_time_s` by machine and thread count, a forked run's source run first (empty in older files).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub segments: Vec<crate::segments::Segment>,
+    /// The iterations whose weights this policy averages (`topa average`); empty: the policy of `iterations`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub averaged_iterations: Vec<usize>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -233,6 +236,27 @@ impl Policy {
                 .map(|(i, x)| *x as f64 * std[c.start + i % e] + mean[c.start + i % e])
                 .collect(),
         )
+    }
+
+    /// A policy from its parts (e.g. a weight average); `meta` must describe them.
+    pub fn from_parts(
+        meta: PolicyMeta,
+        view: ActorView,
+        actor: Mlp,
+        estimator: Option<Mlp>,
+        normalizer: Normalizer,
+    ) -> Self {
+        Policy { meta, view, actor, estimator, normalizer, buffers: InferenceBuffers::default() }
+    }
+
+    /// Writes the policy as `<stem>.safetensors` and `<stem>.json`.
+    pub fn save(&self, stem: &Path) -> Result<PathBuf> {
+        save(stem, &self.actor, self.estimator.as_ref(), &self.normalizer, self.meta.clone())
+    }
+
+    /// The frozen observation normaliser.
+    pub fn normalizer(&self) -> &Normalizer {
+        &self.normalizer
     }
 
     /// What the actor reads of the observation row.
