@@ -10,12 +10,10 @@
 use crate::actor_view::ActorView;
 use crate::error::{bad_file, invalid, Result};
 use crate::nn::{Linear, Mlp};
-use crate::normalizer::{Normalizer, STD_EPS};
 use crate::policy_file::Policy;
 use candle_core::{Device, Tensor, Var};
 
 /// One layer as f64 row-major `[out][in]` weights and `[out]` bias.
-#[derive(Clone)]
 struct Dense {
     w: Vec<Vec<f64>>,
     b: Vec<f64>,
@@ -65,9 +63,10 @@ impl Dense {
     }
 }
 
-/// The normaliser's affine map per observation column: `(mean, 1 / (std + ε))`.
-fn affine(n: &Normalizer) -> Vec<(f64, f64)> {
-    n.mean.iter().zip(n.std()).map(|(&m, s)| (m, 1.0 / (s + STD_EPS))).collect()
+/// The policy's normaliser as `(mean, scale)` per observation column.
+fn affine(p: &Policy) -> Vec<(f64, f64)> {
+    let (mean, scale) = p.normalizer_affine();
+    mean.into_iter().zip(scale).collect()
 }
 
 /// The actor and estimator layers of `p` with its normaliser folded in (`unfold` with `stats`: the inverse).
@@ -141,7 +140,7 @@ pub fn average(policies: &[Policy], names: &[String]) -> Result<Policy> {
     let (mut actor_sum, mut estimator_sum): (Option<Vec<Dense>>, Vec<Dense>) = (None, Vec::new());
     for p in policies {
         let (mut a, mut e) = (dense(Some(p.actor()))?, dense(p.estimator())?);
-        fold(&view, &mut a, &mut e, &affine(p.normalizer()), false);
+        fold(&view, &mut a, &mut e, &affine(p), false);
         match &mut actor_sum {
             None => (actor_sum, estimator_sum) = (Some(a), e),
             Some(s) => {
@@ -155,7 +154,7 @@ pub fn average(policies: &[Policy], names: &[String]) -> Result<Policy> {
     for l in actor.iter_mut().chain(estimator_sum.iter_mut()) {
         l.w.iter_mut().flatten().chain(l.b.iter_mut()).for_each(|x| *x /= n);
     }
-    fold(&view, &mut actor, &mut estimator_sum, &affine(last.normalizer()), true);
+    fold(&view, &mut actor, &mut estimator_sum, &affine(last), true);
     let estimator = match last.estimator() {
         Some(like) => Some(mlp(&estimator_sum, like)?),
         None => None,
