@@ -7,8 +7,8 @@ use crate::cli::{Common, EvalCmd};
 use crate::print::print_json;
 use topa_env::policy_runner::PolicyRunner;
 use topa_eval::{
-    course, course_map, endurance, heatmaps, noise, progress, progress_plot, push, report, terrain, terrain_map,
-    tracking, velocity,
+    course, course_map, endurance, heatmaps, noise, progress, progress_plot, push, report, select, terrain,
+    terrain_map, tracking, velocity,
 };
 
 pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
@@ -133,6 +133,17 @@ pub(crate) fn run_eval(cmd: EvalCmd, c: Common) -> Result<()> {
             let md = progress::markdown(&results, &protocol);
             report::write_text(&c.out, "progress.md", &md)?;
             progress_plot::figure(&results, &c.out.join("progress.png"), &c.out.join("progress.svg"))?;
+            if c.json {
+                return print_json(&results);
+            }
+            println!("{md}");
+        }
+        EvalCmd::Select { runs, from, every, commands, starts, seconds, min_air_time } => {
+            let p = select::Protocol { from, every, commands, starts, seconds, min_air_time_s: min_air_time };
+            let results = runs.iter().map(|r| select::run(r, p, &s, &c.out)).collect::<Result<Vec<_>, _>>()?;
+            report::write_json(&c.out, "select.json", &results)?;
+            let md = select::markdown(&results, &p.describe(&s));
+            report::write_text(&c.out, "select.md", &md)?;
             if c.json {
                 return print_json(&results);
             }

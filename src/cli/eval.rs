@@ -185,6 +185,33 @@ pub(crate) enum EvalCmd {
         #[arg(long, alias = "push-step", value_parser = crate::cli::values::positive)]
         step: Option<f64>,
     },
+    /// Checkpoint selection on held-out commands: each kept checkpoint from --from on through validation commands
+    /// drawn from the training ranges (never the six tracking commands), the one with the smallest mean
+    /// worst-component error and no fall or stand-still written as `<OUT>/<run>/policy.json`.
+    Select {
+        /// A `topa train --out` folder trained with `[run] keep_checkpoints = 0` (repeat for several seeds).
+        #[arg(long = "run", required = true)]
+        runs: Vec<PathBuf>,
+        /// The first iteration a checkpoint may be taken from.
+        #[arg(long)]
+        from: usize,
+        /// Take the checkpoints at multiples of this iteration (and the last).
+        #[arg(long, value_parser = crate::cli::values::at_least_one, default_value_t = 25)]
+        every: usize,
+        /// Validation commands drawn from the training ranges (every third a turn in place).
+        #[arg(long, value_parser = crate::cli::values::at_least_one, default_value_t = 12)]
+        commands: usize,
+        /// Initial states per validation command.
+        #[arg(long, value_parser = crate::cli::values::at_least_one, default_value_t = 2)]
+        starts: usize,
+        /// Seconds per command (after settling).
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = 10.0)]
+        seconds: f64,
+        /// The mean air time per step a kept checkpoint must show on the walking validation commands, s (the
+        /// tracking bar's 0.2 by default).
+        #[arg(long, value_parser = crate::cli::values::positive, default_value_t = topa_eval::claims::MIN_AIR_TIME_S)]
+        min_air_time: f64,
+    },
     /// The six tracking commands and the centre push cells under perturbations of the simulator (contact model,
     /// solver, integrator, timestep, friction, motors, torso, soles, latency), one at a time and combined: per
     /// perturbation the bars met or missed, the share survived, a heatmap.

@@ -46,6 +46,7 @@ pub mod recording;
 pub mod report;
 pub mod results;
 pub mod runner;
+pub mod select;
 pub mod settings;
 pub mod terrain;
 pub mod terrain_map;

@@ -189,14 +189,29 @@ pub fn run(
     transient_s: f64,
     starts: usize,
 ) -> Result<Vec<TrackingRow>> {
+    let commands: Vec<(String, [f64; 3])> = COMMANDS.iter().map(|(key, _, cmd)| (key.to_string(), *cmd)).collect();
+    run_commands(runner, settings, &commands, window_s, transient_s, starts)
+}
+
+/// Runs the named commands, each from `starts` initial states (all in one parallel batch), for `window_s` each:
+/// one row per command, in their order.
+pub fn run_commands(
+    runner: &mut PolicyRunner,
+    settings: &EvalSettings,
+    commands: &[(String, [f64; 3])],
+    window_s: f64,
+    transient_s: f64,
+    starts: usize,
+) -> Result<Vec<TrackingRow>> {
     ensure!(starts >= 1, "tracking needs at least one start per command (--starts ≥ 1)");
+    ensure!(!commands.is_empty(), "tracking needs at least one command");
     let mut cfg = settings.env_config(runner)?;
     cfg.termination.enabled = false; // the robot stays on the floor after a fall and the window goes on
-    let k = COMMANDS.len();
-    let commands: Vec<[f64; 3]> = (0..starts * k).map(|i| COMMANDS[i % k].2).collect();
-    let n = commands.len();
+    let k = commands.len();
+    let per_env: Vec<[f64; 3]> = (0..starts * k).map(|i| commands[i % k].1).collect();
+    let n = per_env.len();
     let mut exp = Tracking {
-        commands,
+        commands: per_env,
         transient_s,
         dt: cfg.policy_dt(),
         ours: vec![TrackingAccumulator::default(); n],
@@ -204,10 +219,10 @@ pub fn run(
         gait: vec![GaitAccumulator::default(); n],
     };
     let fell = run_batch(runner, &cfg, settings, n, window_s, &mut exp, "tracking")?;
-    Ok(COMMANDS
+    Ok(commands
         .iter()
         .enumerate()
-        .map(|(c, (key, _, cmd))| {
+        .map(|(c, (key, cmd))| {
             let results: Vec<StartResult> = (0..starts)
                 .map(|s| s * k + c)
                 .map(|i| StartResult {
