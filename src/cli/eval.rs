@@ -187,7 +187,7 @@ pub(crate) enum EvalCmd {
     },
     /// Checkpoint selection on held-out commands: each kept checkpoint from --from on through validation commands
     /// drawn from the training ranges (never the six tracking commands), the one with the smallest mean
-    /// worst-component error and no fall or stand-still written as `<OUT>/<run>/policy.json`.
+    /// worst-component error, no fall, no stand-still and steps of --min-air-time written as `<OUT>/<run>/policy.json`.
     Select {
         /// A `topa train --out` folder trained with `[run] keep_checkpoints = 0` (repeat for several seeds).
         #[arg(long = "run", required = true)]

@@ -84,6 +84,11 @@ pub fn checkpoints(run: &Path, every: usize) -> Result<Vec<(usize, PathBuf)>> {
     Ok(picked)
 }
 
+/// A run's name in reports: its folder's name.
+pub fn run_name(run: &Path) -> String {
+    run.file_name().map_or_else(|| run.display().to_string(), |n| n.to_string_lossy().into_owned())
+}
+
 /// What each checkpoint goes through: the tracking commands, and optionally the paper's standing push grid.
 #[derive(Debug, Clone, Copy)]
 pub struct Protocol {
@@ -156,7 +161,7 @@ fn cached(file: &Path, protocol: &str, crc: u32) -> Option<Cached> {
 /// `out/policies/<run name>/`). With the push grid, a run with the adversary also has the C+A bar on its mean time
 /// to fall.
 pub fn run(run: &Path, p: Protocol, settings: &EvalSettings, out: &Path) -> Result<RunProgress> {
-    let name = run.file_name().map_or_else(|| run.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let name = run_name(run);
     let dir = out.join("policies").join(&name);
     std::fs::create_dir_all(&dir).map_err(Error::io("creating", &dir))?;
     let mut snapshots = Vec::new();

@@ -154,7 +154,7 @@ fn walking_mean(rows: &[TrackingRow], f: impl Fn(&TrackingRow) -> f64) -> f64 {
 /// under `out/<run name>/`.
 pub fn run(run: &Path, p: Protocol, settings: &EvalSettings, out: &Path) -> Result<Selection> {
     ensure!(p.commands >= 1, "selection needs at least one validation command (--commands ≥ 1)");
-    let name = run.file_name().map_or_else(|| run.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let name = progress::run_name(run);
     let picked: Vec<(usize, PathBuf)> =
         progress::checkpoints(run, p.every)?.into_iter().filter(|(it, _)| *it >= p.from).collect();
     if picked.is_empty() {
